@@ -1,0 +1,41 @@
+// Where frames come from: a V4L2 camera, a video file / image folder, or the simulator.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+namespace ips {
+
+/// One greyscale frame with its capture time.
+struct Frame {
+  std::uint64_t sequence = 0;  ///< source's frame counter (V4L2: driver sequence; gaps = driver drops)
+  std::int64_t t_mono_ns = 0;  ///< capture time, CLOCK_MONOTONIC nanoseconds
+  std::int64_t t_real_ns = 0;  ///< the same instant on CLOCK_REALTIME
+  cv::Mat gray;                ///< CV_8UC1; detection needs nothing else
+};
+
+/// A source of frames. One instance is used by one thread.
+/// open() and read() throw ips::SourceError when the device fails (unplugged, ended);
+/// the caller closes it and reopens with back-off.
+class FrameSource {
+ public:
+  enum class ReadStatus {
+    kFrame,    ///< `out` holds a new frame
+    kTimeout,  ///< nothing arrived within the timeout
+    kCorrupt,  ///< a frame arrived but could not be decoded (counted and skipped by the caller)
+    kEnd,      ///< the source has ended for good (a finite file that does not loop)
+  };
+
+  virtual ~FrameSource() = default;
+  virtual void open() = 0;
+  virtual ReadStatus read(Frame& out, std::chrono::milliseconds timeout) = 0;
+  virtual void close() noexcept = 0;
+  /// Human-readable name for logs, e.g. "v4l2:/dev/v4l/by-id/usb-ELP...".
+  virtual std::string describe() const = 0;
+};
+
+}  // namespace ips

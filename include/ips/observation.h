@@ -1,0 +1,50 @@
+// Plain structs passed between the pipeline stages (see ARCHITECTURE.md).
+// Units: metres, radians, seconds/nanoseconds. Image coordinates in pixels,
+// origin at the centre of the top-left pixel, x right, y down.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Core>
+
+namespace ips {
+
+/// A 2-D point in pixels or normalised image coordinates.
+struct Point2 {
+  double x = 0.0;
+  double y = 0.0;
+};
+
+/// One ArUco marker found in one image.
+/// Corner order is OpenCV ArUco's: the marker's top-left, top-right, bottom-right,
+/// bottom-left as printed, i.e. clockwise in the image when seen from the front.
+struct MarkerDetection {
+  int id = -1;
+  std::array<Point2, 4> corners_px{};
+};
+
+/// A marker in one camera's coordinate frame, from the marker-size depth formula.
+struct CameraObservation {
+  int id = -1;
+  Eigen::Vector3d p_cam = Eigen::Vector3d::Zero();  ///< (xc, yc, zc), metres
+  double yaw = 0.0;            ///< marker x-axis heading in the camera x-y plane, radians
+  double area_px = 0.0;        ///< marker area in the image, px^2 (shoelace formula)
+  double edge_length = 0.0;    ///< marker edge length L used for the depth, metres
+  std::array<Point2, 4> corners_px{};    ///< raw corners, pixels
+  std::array<Point2, 4> corners_norm{};  ///< undistorted corners, normalised (u, v)
+};
+
+/// A marker in world coordinates as seen by one camera.
+struct WorldObservation {
+  int id = -1;
+  int camera_index = -1;       ///< index of the camera in the daemon's configuration
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< metres
+  double yaw = 0.0;            ///< heading in the world x-y plane, radians
+  double area_px = 0.0;        ///< pixel area, for fusion weights
+  std::int64_t t_mono_ns = 0;  ///< capture time, CLOCK_MONOTONIC
+  std::int64_t t_real_ns = 0;  ///< capture time, CLOCK_REALTIME
+};
+
+}  // namespace ips

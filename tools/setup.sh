@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package ipsd needs to build, test and run.
+# Idempotent: packages already present are left as they are.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config git
+  libopencv-dev libopencv-contrib-dev      # OpenCV 4.6 core/imgproc/calib3d + contrib aruco
+  libeigen3-dev                            # linear algebra for the mappers
+  libnlopt-cxx-dev                         # kriging maximum-likelihood optimisation
+  libturbojpeg0-dev                        # fast MJPEG -> greyscale decode
+  libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
+  libsystemd-dev                           # sd_notify
+  linux-libc-dev                           # V4L2 headers
+  libgtest-dev libgmock-dev libbenchmark-dev
+  python3
+)
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "setup: all packages present"
+fi

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The whole test suite, from a fresh Debian 12 machine:
+#   1. install the Debian packages (tools/setup.sh),
+#   2. build and test the release configuration,
+#   3. build and test again under AddressSanitizer + UBSan.
+# Usage: bash tools/test.sh            (both configurations)
+#        IPS_TEST_CONFIGS=release bash tools/test.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bash tools/setup.sh
+
+jobs=$(nproc)
+configs=${IPS_TEST_CONFIGS:-"release asan"}
+for config in $configs; do
+  build="build/$config"
+  case "$config" in
+    release) flags=(-DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF) ;;
+    asan)    flags=(-DCMAKE_BUILD_TYPE=Debug -DIPS_SANITIZE=ON -DIPS_BUILD_BENCHMARKS=OFF) ;;
+    *) echo "test.sh: unknown configuration '$config' (release|asan)" >&2; exit 2 ;;
+  esac
+  echo "=== $config: configure + build ($build) ==="
+  cmake -S . -B "$build" -G Ninja "${flags[@]}"
+  cmake --build "$build" -j "$jobs"
+  echo "=== $config: ctest ==="
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+  export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  (cd "$build" && ctest --output-on-failure -j "$jobs")
+done
