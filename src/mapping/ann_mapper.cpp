@@ -26,7 +26,7 @@ constexpr int kIterations = 300;
 /// Weight decay (ridge on all weights, in normalised units): a small pull towards zero that
 /// keeps 16 weights from chasing the ~0.5 cm measurement noise of 40 points. Cost term is
 /// kDecay * |w|^2 next to the sum of squared normalised residuals.
-constexpr double kDecay = 1e-4;
+constexpr double kDecay = 1e-3;
 
 /// splitmix64: a tiny, well-mixed, platform-independent generator (std::uniform_real_distribution
 /// is implementation-defined, so results would differ between standard libraries).
