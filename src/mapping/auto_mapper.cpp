@@ -1,6 +1,7 @@
 // `auto`: per camera, the method with the least k-fold cross-validated mean error on the
 // training pairs (metric 3d or 2d), refitted on all pairs. The CV table is kept with the
-// parameters so the model file shows why the method was chosen.
+// parameters so the model file shows why the method was chosen. Candidates: every registered
+// method except auto itself, and plane only for the 2d metric (it needs the marker height).
 #include <cmath>
 #include <limits>
 
@@ -33,6 +34,9 @@ class AutoMapper final : public Mapper {
     double best = std::numeric_limits<double>::infinity();
     for (const auto& name : mapper_names()) {
       if (name == "auto") continue;
+      // plane is given the marker height instead of estimating it, so its z error is zero by
+      // construction: it competes on the floor-plane (2d) metric only.
+      if (name == "plane" && options.metric != ErrorMetric::k2d) continue;
       if (make_mapper(name)->min_points() > train_size) continue;  // too few pairs for it
       CameraErrors e;
       try {
