@@ -1,0 +1,161 @@
+// Runs ips::V4L2Source in a child process that has the V4L2 emulator preloaded, and prints
+// what it saw as `key=value` lines for capture_test.cpp to check.
+//   capture: open, read --frames frames (dumping them as PNG if --dump-dir), print stats
+//   unplug:  open/read, then --cycles times: unplug (control file) -> read must throw
+//            SourceError -> open must throw -> replug -> open + read a frame; prints the
+//            fd and buffer-mapping counts before and after (leak check)
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <spdlog/sinks/stdout_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "emu_control.h"
+#include "ips/clock.h"
+#include "ips/error.h"
+#include "ips/v4l2_source.h"
+
+namespace {
+
+using Status = ips::FrameSource::ReadStatus;
+
+int count_fds() {
+  int n = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator("/proc/self/fd")) ++n;
+  return n;
+}
+
+// Mappings of the emulator's buffer memory (its memfd is named ips-v4l2-emu).
+int count_buffer_maps() {
+  std::ifstream maps("/proc/self/maps");
+  int n = 0;
+  for (std::string line; std::getline(maps, line);) n += line.find("ips-v4l2-emu") != std::string::npos;
+  return n;
+}
+
+// Reads until a frame arrives; returns false after `limit` non-frame results.
+bool read_frame(ips::V4L2Source& source, ips::Frame& frame, int limit = 200) {
+  for (int i = 0; i < limit; ++i)
+    if (source.read(frame, std::chrono::milliseconds(100)) == Status::kFrame) return true;
+  return false;
+}
+
+void print_granted(const ips::V4L2Source& s) {
+  const auto& g = s.granted();
+  std::printf("granted format=%s width=%d height=%d fps=%.3f buffers=%d driver=%s card=%s", 
+              g.format == ips::PixelFormat::kMjpeg ? "MJPEG" : "YUYV", g.width, g.height, g.fps,
+              g.buffer_count, g.driver.c_str(), g.card.c_str());
+  if (g.exposure_s) std::printf(" exposure_s=%.4f", *g.exposure_s);
+  if (g.gain) std::printf(" gain=%d", *g.gain);
+  if (g.autofocus) std::printf(" autofocus=%d", *g.autofocus ? 1 : 0);
+  if (g.power_line_hz) std::printf(" power_line_hz=%d", *g.power_line_hz);
+  std::printf("\n");
+}
+
+int capture(ips::V4L2Source& source, int frames, const std::string& dump_dir) {
+  source.open();
+  print_granted(source);
+  ips::Frame frame;
+  int got = 0, attempts = 0;
+  while (got < frames && attempts++ < 50 * frames + 100) {
+    const Status status = source.read(frame, std::chrono::milliseconds(200));
+    if (status == Status::kCorrupt) std::printf("corrupt\n");
+    if (status != Status::kFrame) continue;
+    ++got;
+    std::printf("frame seq=%llu mono=%lld real=%lld read_mono=%lld offset=%lld width=%d height=%d\n",
+                static_cast<unsigned long long>(frame.sequence), static_cast<long long>(frame.t_mono_ns),
+                static_cast<long long>(frame.t_real_ns), static_cast<long long>(ips::monotonic_ns()),
+                static_cast<long long>(ips::realtime_minus_monotonic_ns()), frame.gray.cols, frame.gray.rows);
+    if (!dump_dir.empty())
+      cv::imwrite(dump_dir + "/frame_" + std::to_string(frame.sequence) + ".png", frame.gray);
+  }
+  const auto& st = source.stats();
+  std::printf("stats frames=%llu corrupt=%llu drops=%llu\n", static_cast<unsigned long long>(st.frames),
+              static_cast<unsigned long long>(st.corrupt), static_cast<unsigned long long>(st.driver_drops));
+  source.close();
+  return got == frames ? 0 : 1;
+}
+
+int unplug(ips::V4L2Source& source, const std::string& control, int cycles) {
+  const int fds_before = count_fds();
+  const int maps_before = count_buffer_maps();
+  ips::Frame frame;
+  source.open();
+  std::printf("maps_open=%d\n", count_buffer_maps());
+  if (!read_frame(source, frame)) return 1;
+  for (int c = 0; c < cycles; ++c) {
+    ips::test::set_emu_control(control, "present", "0");
+    try {
+      for (int i = 0; i < 100; ++i) source.read(frame, std::chrono::milliseconds(100));
+      std::printf("error: read kept working after unplug\n");
+      return 1;
+    } catch (const ips::SourceError& e) {
+      if (c == 0) std::printf("read_error=%s open_after=%d\n", e.what(), source.is_open() ? 1 : 0);
+    }
+    try {
+      source.open();
+      std::printf("error: open worked while unplugged\n");
+      return 1;
+    } catch (const ips::SourceError& e) {
+      if (c == 0) std::printf("open_error=%s\n", e.what());
+    }
+    ips::test::set_emu_control(control, "present", "1");
+    source.open();
+    if (!read_frame(source, frame)) return 1;
+  }
+  std::printf("replugged_frames=%llu opens=%llu\n", static_cast<unsigned long long>(source.stats().frames),
+              static_cast<unsigned long long>(source.stats().opens));
+  source.close();
+  std::printf("fds_before=%d fds_after=%d maps_before=%d maps_after=%d\n", fds_before, count_fds(), maps_before,
+              count_buffer_maps());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"V4L2Source test driver (run under the V4L2 emulator)"};
+  std::string mode, format = "mjpeg", dump_dir, control;
+  ips::V4L2Options options;
+  int frames = 10, cycles = 1;
+  app.add_option("mode", mode)->required()->check(CLI::IsMember({"capture", "unplug"}));
+  app.add_option("--device", options.device)->required();
+  app.add_option("--width", options.width);
+  app.add_option("--height", options.height);
+  app.add_option("--fps", options.fps);
+  app.add_option("--format", format)->check(CLI::IsMember({"mjpeg", "yuyv"}));
+  app.add_option("--buffers", options.buffer_count);
+  app.add_option("--scale", options.decode_scale);
+  app.add_option("--frames", frames);
+  app.add_option("--dump-dir", dump_dir);
+  app.add_option("--control", control);
+  app.add_option("--cycles", cycles);
+  double exposure = 0;
+  int gain = -1, autofocus = -1, power_line = -1;
+  app.add_option("--exposure", exposure);
+  app.add_option("--gain", gain);
+  app.add_option("--autofocus", autofocus);
+  app.add_option("--power-line", power_line);
+  CLI11_PARSE(app, argc, argv);
+  options.format = format == "mjpeg" ? ips::PixelFormat::kMjpeg : ips::PixelFormat::kYuyv;
+  if (exposure > 0) options.controls.exposure_s = exposure;
+  if (gain >= 0) options.controls.gain = gain;
+  if (autofocus >= 0) options.controls.autofocus = autofocus != 0;
+  if (power_line >= 0) options.controls.power_line_hz = power_line;
+  spdlog::set_default_logger(spdlog::stderr_logger_st("driver"));  // stdout is for results
+  spdlog::set_level(spdlog::level::warn);
+  spdlog::set_pattern("%l: %v");
+  try {
+    ips::V4L2Source source(options);
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);
+    return mode == "capture" ? capture(source, frames, dump_dir) : unplug(source, control, cycles);
+  } catch (const std::exception& e) {
+    std::printf("exception=%s\n", e.what());
+    return 3;
+  }
+}
