@@ -130,7 +130,7 @@ class V4L2Source : public FrameSource {
   std::optional<std::uint32_t> last_sequence_;
   bool warned_timestamp_ = false;
   std::int64_t offset_ns_ = 0;             // realtime - monotonic
-  std::int64_t offset_sampled_mono_ns_ = INT64_MIN;
+  std::optional<std::int64_t> offset_sampled_mono_ns_;  // when offset_ns_ was sampled
 };
 
 }  // namespace ips

@@ -253,7 +253,7 @@ void V4L2Source::close() noexcept {
 }
 
 std::int64_t V4L2Source::realtime_offset_ns(std::int64_t now_mono_ns) {
-  if (now_mono_ns - offset_sampled_mono_ns_ >= kOffsetRefreshNs || offset_sampled_mono_ns_ == INT64_MIN) {
+  if (!offset_sampled_mono_ns_ || now_mono_ns - *offset_sampled_mono_ns_ >= kOffsetRefreshNs) {
     offset_ns_ = realtime_minus_monotonic_ns();
     offset_sampled_mono_ns_ = now_mono_ns;
   }
