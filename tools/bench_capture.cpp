@@ -78,7 +78,7 @@ int parent(int argc, char** argv, const std::string& emulator) {
   for (int k = 0; k < 8; ++k) {
     std::vector<std::uint8_t> jpeg;
     cv::imencode(".jpg", scene(k), jpeg, {cv::IMWRITE_JPEG_QUALITY, 85});
-    std::ofstream((work / "frames" / ("f" + std::to_string(k) + ".jpg")).string(), std::ios::binary)
+    std::ofstream((work / "frames" / fmt::format("f{}.jpg", k)).string(), std::ios::binary)
         .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
     bytes += jpeg.size();
   }
