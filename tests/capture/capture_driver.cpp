@@ -4,8 +4,13 @@
 //   unplug:  open/read, then --cycles times: unplug (control file) -> read must throw
 //            SourceError -> open must throw -> replug -> open + read a frame; prints the
 //            fd and buffer-mapping counts before and after (leak check)
+//   two:     two cameras (--device and --device2), one thread each, reopening on failure;
+//            unplugs the first and checks that the second keeps delivering, then replugs
+#include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <functional>
+#include <thread>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -116,6 +121,72 @@ int unplug(ips::V4L2Source& source, const std::string& control, int cycles) {
   return 0;
 }
 
+// One camera thread: read frames, reopen (after a short pause) whenever the source fails.
+struct CameraThread {
+  explicit CameraThread(ips::V4L2Options options) : source(std::move(options)) {}
+  void run() {
+    ips::Frame frame;
+    while (!stop) {
+      if (!source.is_open()) {
+        try {
+          source.open();
+        } catch (const ips::SourceError&) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(50));
+          continue;
+        }
+      }
+      try {
+        if (source.read(frame, std::chrono::milliseconds(100)) == Status::kFrame) ++frames;
+      } catch (const ips::SourceError&) {
+        ++failures;
+      }
+    }
+    source.close();
+  }
+  ips::V4L2Source source;
+  std::atomic<std::uint64_t> frames{0}, failures{0};
+  std::atomic<bool> stop{false};
+};
+
+// Waits (up to 20 s, only reached on failure) for `done` to hold.
+bool wait_for(const std::function<bool()>& done) {
+  for (int i = 0; i < 2000 && !done(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  return done();
+}
+
+int two_cameras(const ips::V4L2Options& options, const std::string& device2, const std::string& control) {
+  ips::V4L2Options options2 = options;
+  options2.device = device2;
+  CameraThread cam0(options), cam1(options2);
+  std::thread t0([&] { cam0.run(); }), t1([&] { cam1.run(); });
+  int rc = 0;
+  auto check = [&](bool ok, const char* what) {
+    if (!ok) {
+      std::printf("error: %s\n", what);
+      rc = 1;
+    }
+    return ok;
+  };
+  if (check(wait_for([&] { return cam0.frames >= 5 && cam1.frames >= 5; }), "both cameras streaming")) {
+    ips::test::set_emu_control(control, "present", "0");
+    if (check(wait_for([&] { return cam0.failures >= 1; }), "unplug detected")) {
+      const std::uint64_t f0 = cam0.frames, f1 = cam1.frames;
+      check(wait_for([&] { return cam1.frames >= f1 + 20; }), "second camera keeps delivering");
+      std::printf("during_unplug cam0=%llu cam1=%llu\n", static_cast<unsigned long long>(cam0.frames - f0),
+                  static_cast<unsigned long long>(cam1.frames - f1));
+      ips::test::set_emu_control(control, "present", "1");
+      const bool resumed = wait_for([&] { return cam0.frames >= f0 + 5; });
+      std::printf("resumed=%d cam0_opens=%llu cam1_opens=%llu\n", resumed ? 1 : 0,
+                  static_cast<unsigned long long>(cam0.source.stats().opens),
+                  static_cast<unsigned long long>(cam1.source.stats().opens));
+    }
+  }
+  cam0.stop = cam1.stop = true;
+  t0.join();
+  t1.join();
+  return rc;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -123,8 +194,10 @@ int main(int argc, char** argv) {
   std::string mode, format = "mjpeg", dump_dir, control;
   ips::V4L2Options options;
   int frames = 10, cycles = 1;
-  app.add_option("mode", mode)->required()->check(CLI::IsMember({"capture", "unplug"}));
+  std::string device2;
+  app.add_option("mode", mode)->required()->check(CLI::IsMember({"capture", "unplug", "two"}));
   app.add_option("--device", options.device)->required();
+  app.add_option("--device2", device2);
   app.add_option("--width", options.width);
   app.add_option("--height", options.height);
   app.add_option("--fps", options.fps);
@@ -153,6 +226,7 @@ int main(int argc, char** argv) {
   try {
     ips::V4L2Source source(options);
     std::setvbuf(stdout, nullptr, _IOLBF, 0);
+    if (mode == "two") return two_cameras(options, device2, control);
     return mode == "capture" ? capture(source, frames, dump_dir) : unplug(source, control, cycles);
   } catch (const std::exception& e) {
     std::printf("exception=%s\n", e.what());

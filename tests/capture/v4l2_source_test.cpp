@@ -230,6 +230,27 @@ TEST_F(EmulatedCamera, UnplugThrowsSourceErrorAndReplugReopensWithoutLeaks) {
   EXPECT_EQ(field(counts, "maps_after"), "0");
 }
 
+TEST_F(EmulatedCamera, UnpluggingOneCameraLeavesTheOtherStreaming) {
+  write_frames(320, 240, 2);
+  configure({{"sizes", "320x240"}});
+  const std::string control1 = dir_ / "cam1.conf";
+  ips::test::write_emu_control(control1, {{"formats", "YUYV"}, {"sizes", "320x240"}, {"fps", "100"}});
+  const auto r = ips::test::run_emulated({IPS_CAPTURE_DRIVER, "two", "--device", kDevice, "--device2",
+                                          "/dev/video-emu1", "--width", "320", "--height", "240", "--control",
+                                          control_},
+                                         {{kDevice, control_}, {"/dev/video-emu1", control1}}, dir_.str());
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const auto during = lines_starting(r.out, "during_unplug ");
+  ASSERT_EQ(during.size(), 1u) << r.out;
+  EXPECT_EQ(field(during[0], "cam0"), "0");
+  EXPECT_GE(std::stoi(field(during[0], "cam1")), 20);
+  const auto resumed = lines_starting(r.out, "resumed=");
+  ASSERT_EQ(resumed.size(), 1u) << r.out;
+  EXPECT_EQ(field(resumed[0], "resumed"), "1");
+  EXPECT_EQ(field(resumed[0], "cam0_opens"), "2");
+  EXPECT_EQ(field(resumed[0], "cam1_opens"), "1");
+}
+
 TEST(V4L2Source, OpeningAMissingDeviceThrowsSourceErrorNamingIt) {
   ips::V4L2Options options;
   options.device = "/nonexistent/video7";
