@@ -4,9 +4,20 @@
 //   unplug:  open/read, then --cycles times: unplug (control file) -> read must throw
 //            SourceError -> open must throw -> replug -> open + read a frame; prints the
 //            fd and buffer-mapping counts before and after (leak check)
+//   raw:     the emulator's own semantics through bare ioctl/mmap/poll/select calls
 //   two:     two cameras (--device and --device2), one thread each, reopening on failure;
 //            unplugs the first and checks that the second keeps delivering, then replugs
+#include <fcntl.h>
+#include <linux/videodev2.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
+#include <sys/select.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <cerrno>
+#include <vector>
 #include <chrono>
 #include <cstdio>
 #include <functional>
@@ -121,6 +132,57 @@ int unplug(ips::V4L2Source& source, const std::string& control, int cycles) {
   return 0;
 }
 
+// Streams a 160x120 YUYV device by hand and prints what each step returned.
+int raw(const std::string& device) {
+  const int fd = ::open(device.c_str(), O_RDWR | O_NONBLOCK);
+  if (fd < 0) return 1;
+  v4l2_format fmt{};
+  fmt.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  fmt.fmt.pix = {160, 120, V4L2_PIX_FMT_YUYV, V4L2_FIELD_ANY, 0, 0, 0, 0, 0, {0}, 0, 0};
+  v4l2_requestbuffers req{};
+  req.count = 4;
+  req.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  req.memory = V4L2_MEMORY_MMAP;
+  if (::ioctl(fd, VIDIOC_S_FMT, &fmt) != 0 || ::ioctl(fd, VIDIOC_REQBUFS, &req) != 0) return 1;
+  std::vector<std::uint8_t*> mem;
+  for (std::uint32_t i = 0; i < req.count; ++i) {
+    v4l2_buffer b{};
+    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    b.memory = V4L2_MEMORY_MMAP;
+    b.index = i;
+    if (::ioctl(fd, VIDIOC_QUERYBUF, &b) != 0) return 1;
+    void* p = ::mmap(nullptr, b.length, PROT_READ, MAP_SHARED, fd, b.m.offset);
+    if (p == MAP_FAILED || ::ioctl(fd, VIDIOC_QBUF, &b) != 0) return 1;
+    mem.push_back(static_cast<std::uint8_t*>(p));
+  }
+  pollfd pfd{fd, POLLIN, 0};
+  std::printf("poll_before_streamon=%s\n", ::poll(&pfd, 1, 0) == 1 && (pfd.revents & POLLERR) ? "POLLERR" : "other");
+  v4l2_buf_type type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  if (::ioctl(fd, VIDIOC_STREAMON, &type) != 0) return 1;
+  const std::int64_t t_on = ips::monotonic_ns();
+  v4l2_buffer b{};
+  b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  b.memory = V4L2_MEMORY_MMAP;
+  const int early = ::ioctl(fd, VIDIOC_DQBUF, &b);
+  std::printf("dqbuf_early=%s\n", early == -1 && errno == EAGAIN ? "EAGAIN" : "other");
+  fd_set readable;
+  FD_ZERO(&readable);
+  FD_SET(fd, &readable);
+  timeval timeout{5, 0};
+  const int selected = ::select(fd + 1, &readable, nullptr, nullptr, &timeout);
+  std::printf("select=%d isset=%d\n", selected, FD_ISSET(fd, &readable) ? 1 : 0);
+  if (::ioctl(fd, VIDIOC_DQBUF, &b) != 0) return 1;
+  const std::int64_t ts = b.timestamp.tv_sec * 1'000'000'000LL + b.timestamp.tv_usec * 1000LL;
+  const std::uint8_t* y = mem[b.index] + 2 * fmt.fmt.pix.bytesperline;  // row 2
+  std::printf("seq=%u monotonic=%d ts_after_streamon_ns=%lld bytesused=%u y32=%d\n", b.sequence,
+              (b.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC ? 1 : 0,
+              static_cast<long long>(ts - t_on), b.bytesused, y[2 * 3]);
+  ::ioctl(fd, VIDIOC_STREAMOFF, &type);
+  for (std::uint8_t* p : mem) ::munmap(p, fmt.fmt.pix.sizeimage);
+  ::close(fd);
+  return 0;
+}
+
 // One camera thread: read frames, reopen (after a short pause) whenever the source fails.
 struct CameraThread {
   explicit CameraThread(ips::V4L2Options options) : source(std::move(options)) {}
@@ -195,7 +257,7 @@ int main(int argc, char** argv) {
   ips::V4L2Options options;
   int frames = 10, cycles = 1;
   std::string device2;
-  app.add_option("mode", mode)->required()->check(CLI::IsMember({"capture", "unplug", "two"}));
+  app.add_option("mode", mode)->required()->check(CLI::IsMember({"capture", "unplug", "two", "raw"}));
   app.add_option("--device", options.device)->required();
   app.add_option("--device2", device2);
   app.add_option("--width", options.width);
@@ -227,6 +289,7 @@ int main(int argc, char** argv) {
     ips::V4L2Source source(options);
     std::setvbuf(stdout, nullptr, _IOLBF, 0);
     if (mode == "two") return two_cameras(options, device2, control);
+    if (mode == "raw") return raw(options.device);
     return mode == "capture" ? capture(source, frames, dump_dir) : unplug(source, control, cycles);
   } catch (const std::exception& e) {
     std::printf("exception=%s\n", e.what());

@@ -628,6 +628,12 @@ int openat64(int dirfd, const char* path, int flags, ...) {
   return real_openat64(dirfd, path, flags, mode);
 }
 
+// What open() becomes with -D_FORTIFY_SOURCE (distribution package builds).
+int __open_2(const char* path, int flags) { return open(path, flags); }
+int __open64_2(const char* path, int flags) { return open64(path, flags); }
+int __openat_2(int dirfd, const char* path, int flags) { return openat(dirfd, path, flags); }
+int __openat64_2(int dirfd, const char* path, int flags) { return openat64(dirfd, path, flags); }
+
 int close(int fd) {
   REAL(close);
   if (is_fake(fd)) {

@@ -77,6 +77,26 @@ std::uint64_t stat_of(const std::string& out, const std::string& key) {
   return lines.empty() ? ~0ull : std::stoull(field(lines.back(), key));
 }
 
+// The emulator itself behaves like a V4L2 driver (else the other tests prove little).
+TEST_F(EmulatedCamera, EmulatorFollowsV4l2BufferSemantics) {
+  configure({{"formats", "YUYV"}, {"sizes", "160x120"}, {"fps", "2"}});  // first frame 0.5 s after STREAMON
+  const auto r = run({"raw", "--device", kDevice});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("poll_before_streamon=POLLERR\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("dqbuf_early=EAGAIN\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("select=1 isset=1\n"), std::string::npos) << r.out;
+  const auto frame = lines_starting(r.out, "seq=");
+  ASSERT_EQ(frame.size(), 1u) << r.out;
+  EXPECT_EQ(field(frame[0], "seq"), "0");
+  EXPECT_EQ(field(frame[0], "monotonic"), "1");
+  EXPECT_EQ(field(frame[0], "bytesused"), std::to_string(160 * 2 * 120));
+  EXPECT_EQ(field(frame[0], "y32"), "7");  // Y(x=3, y=2) of frame 0 = 3 + 2*2
+  // Frame 0 completes one period after STREAMON, which happened just before t_on.
+  const double after = std::stod(field(frame[0], "ts_after_streamon_ns"));
+  EXPECT_LE(after, 0.5e9);
+  EXPECT_GT(after, 0.25e9);  // loose: the driver may be descheduled after STREAMON
+}
+
 TEST_F(EmulatedCamera, MjpegFramesCarrySizeSequenceAndDriverTimestamps) {
   write_frames(640, 480);
   configure({{"sizes", "1920x1080,640x480"}});
