@@ -58,6 +58,21 @@ void query_sizes(int fd, V4L2FormatInfo& format, std::uint32_t fourcc) {
   }
 }
 
+void query_controls(int fd, std::vector<V4L2ControlInfo>& controls) {
+  static const std::pair<std::uint32_t, const char*> kControls[] = {
+      {V4L2_CID_EXPOSURE_AUTO, "auto_exposure"}, {V4L2_CID_EXPOSURE_ABSOLUTE, "exposure"},
+      {V4L2_CID_GAIN, "gain"},                   {V4L2_CID_FOCUS_AUTO, "autofocus"},
+      {V4L2_CID_POWER_LINE_FREQUENCY, "power_line_hz"}};
+  for (const auto& [id, key] : kControls) {
+    v4l2_queryctrl q{};
+    q.id = id;
+    if (xioctl(fd, VIDIOC_QUERYCTRL, &q) != 0 || (q.flags & V4L2_CTRL_FLAG_DISABLED)) continue;
+    v4l2_control value{id, q.default_value};
+    if (xioctl(fd, VIDIOC_G_CTRL, &value) != 0) value.value = q.default_value;
+    controls.push_back({key, q.minimum, q.maximum, q.default_value, value.value});
+  }
+}
+
 }  // namespace
 
 V4L2DeviceInfo query_v4l2_device(const std::string& path) {
@@ -91,6 +106,7 @@ V4L2DeviceInfo query_v4l2_device(const std::string& path) {
       query_sizes(fd, format, desc.pixelformat);
       info.formats.push_back(std::move(format));
     }
+    query_controls(fd, info.controls);
   }
   ::close(fd);
   return info;

@@ -17,6 +17,17 @@ std::string rates(const ips::V4L2FrameSize& size) {
   return s.empty() ? "rate not reported" : s + " fps";
 }
 
+// A control in the config's terms: seconds for exposure, Hz for the power line, booleans.
+std::string describe_control(const ips::V4L2ControlInfo& c) {
+  auto power_line = [](int v) { return v == 1 ? "50" : v == 2 ? "60" : v == 0 ? "0 (off)" : "auto"; };
+  if (c.key == "exposure")
+    return fmt::format("exposure: {:.4g}..{:.4g} s, now {:.4g} s", c.min * 1e-4, c.max * 1e-4, c.current * 1e-4);
+  if (c.key == "auto_exposure") return fmt::format("auto_exposure: now {}", c.current != 1);
+  if (c.key == "autofocus") return fmt::format("autofocus: now {}", c.current != 0);
+  if (c.key == "power_line_hz") return fmt::format("power_line_hz: now {}", power_line(c.current));
+  return fmt::format("{}: {}..{}, now {}", c.key, c.min, c.max, c.current);
+}
+
 void print_device(const ips::V4L2DeviceInfo& d) {
   if (!d.error.empty()) {
     std::printf("%s: cannot query: %s\n", d.path.c_str(), d.error.c_str());
@@ -33,6 +44,8 @@ void print_device(const ips::V4L2DeviceInfo& d) {
     for (const auto& s : f.sizes) std::printf("    %dx%d @ %s\n", s.width, s.height, rates(s).c_str());
     if (!f.size_range.empty()) std::printf("    sizes %s\n", f.size_range.c_str());
   }
+  if (!d.controls.empty()) std::printf("  controls:\n");
+  for (const auto& c : d.controls) std::printf("    %s\n", describe_control(c).c_str());
 }
 
 IPS_REGISTER_COMMAND(

@@ -519,14 +519,31 @@ int handle_ioctl(Handle& h, unsigned long request, void* arg, std::int64_t& wait
       h.done.clear();
       for (auto& b : h.buffers) b.state = Buffer::kIdle;
       return 0;
+    case VIDIOC_QUERYCTRL:
     case VIDIOC_G_CTRL:
     case VIDIOC_S_CTRL: {
-      auto* ctrl = static_cast<v4l2_control*>(arg);
-      const auto it = std::find_if(kControls.begin(), kControls.end(),
-                                   [&](const Control& k) { return k.id == ctrl->id; });
+      // v4l2_queryctrl and v4l2_control both start with the control id.
+      const std::uint32_t id = *static_cast<std::uint32_t*>(arg);
+      const auto it = std::find_if(kControls.begin(), kControls.end(), [&](const Control& k) { return k.id == id; });
       if (it == kControls.end() || std::count(c.unsupported_controls.begin(),
                                               c.unsupported_controls.end(), it->name) > 0)
         return EINVAL;
+      if (request == VIDIOC_QUERYCTRL) {
+        auto* q = static_cast<v4l2_queryctrl*>(arg);
+        *q = {};
+        q->id = id;
+        q->type = it->id == V4L2_CID_FOCUS_AUTO ? V4L2_CTRL_TYPE_BOOLEAN
+                  : (it->id == V4L2_CID_EXPOSURE_AUTO || it->id == V4L2_CID_POWER_LINE_FREQUENCY)
+                      ? V4L2_CTRL_TYPE_MENU
+                      : V4L2_CTRL_TYPE_INTEGER;
+        copy_string(q->name, sizeof q->name, it->name);
+        q->minimum = it->min;
+        q->maximum = it->max;
+        q->step = 1;
+        q->default_value = it->def;
+        return 0;
+      }
+      auto* ctrl = static_cast<v4l2_control*>(arg);
       if (request == VIDIOC_G_CTRL) {
         ctrl->value = h.controls.count(it->id) ? h.controls[it->id] : it->def;
         return 0;
