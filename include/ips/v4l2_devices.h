@@ -18,20 +18,21 @@ struct V4L2FormatInfo {
   std::string fourcc;       ///< "MJPG", "YUYV", ...
   std::string description;  ///< the driver's, e.g. "Motion-JPEG"
   std::vector<V4L2FrameSize> sizes;
-  std::string size_range;   ///< for stepwise/continuous sizes, e.g. "16x16-1920x1080 step 8x8"
+  std::string size_range;  ///< for stepwise/continuous sizes, e.g. "16x16-1920x1080 step 8x8"
 };
 
 /// A camera control that V4L2Source can set, in the driver's own units.
 struct V4L2ControlInfo {
-  std::string key;  ///< the config key under `controls`: auto_exposure, exposure, gain, autofocus, power_line_hz
+  std::string key;  ///< the config key under `controls`: auto_exposure, exposure, gain, autofocus,
+                    ///< power_line_hz
   std::int32_t min = 0, max = 0, default_value = 0, current = 0;
 };
 
 struct V4L2DeviceInfo {
-  std::string path;           ///< e.g. /dev/video0
-  std::string error;          ///< non-empty if the device could not be opened or queried
+  std::string path;   ///< e.g. /dev/video0
+  std::string error;  ///< non-empty if the device could not be opened or queried
   std::string driver, card, bus_info;
-  bool capture = false;       ///< a video capture node with streaming I/O (UVC metadata nodes are not)
+  bool capture = false;  ///< a video capture node with streaming I/O (UVC metadata nodes are not)
   std::vector<V4L2FormatInfo> formats;
   std::vector<V4L2ControlInfo> controls;  ///< only those the device supports
   std::vector<std::string> links;  ///< /dev/v4l/by-id and by-path symlinks resolving to `path`

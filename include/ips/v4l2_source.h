@@ -63,7 +63,7 @@ struct V4L2Granted {
   PixelFormat format = PixelFormat::kMjpeg;
   int width = 0;
   int height = 0;
-  double fps = 0;           ///< 0 if the driver does not report a frame interval
+  double fps = 0;  ///< 0 if the driver does not report a frame interval
   int buffer_count = 0;
   std::string driver, card, bus_info;
   /// Control values read back after setting them (only the controls that were set and
@@ -129,7 +129,7 @@ class V4L2Source : public FrameSource {
   JpegDecoder decoder_;
   std::optional<std::uint32_t> last_sequence_;
   bool warned_timestamp_ = false;
-  std::int64_t offset_ns_ = 0;             // realtime - monotonic
+  std::int64_t offset_ns_ = 0;                          // realtime - monotonic
   std::optional<std::int64_t> offset_sampled_mono_ns_;  // when offset_ns_ was sampled
 };
 

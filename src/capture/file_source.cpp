@@ -6,9 +6,9 @@
 #include <set>
 #include <thread>
 
+#include <spdlog/spdlog.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <spdlog/spdlog.h>
 
 #include "ips/clock.h"
 #include "ips/error.h"
@@ -19,16 +19,21 @@ namespace {
 namespace fs = std::filesystem;
 
 bool is_image(const fs::path& p) {
-  static const std::set<std::string> kExtensions{".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"};
+  static const std::set<std::string> kExtensions{".png", ".jpg",  ".jpeg", ".bmp",
+                                                 ".tif", ".tiff", ".pgm",  ".ppm"};
   std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return kExtensions.count(ext) > 0;
 }
 
 void to_gray(const cv::Mat& in, cv::Mat& gray) {
-  if (in.channels() == 3) cv::cvtColor(in, gray, cv::COLOR_BGR2GRAY);
-  else if (in.channels() == 4) cv::cvtColor(in, gray, cv::COLOR_BGRA2GRAY);
-  else in.copyTo(gray);
+  if (in.channels() == 3)
+    cv::cvtColor(in, gray, cv::COLOR_BGR2GRAY);
+  else if (in.channels() == 4)
+    cv::cvtColor(in, gray, cv::COLOR_BGRA2GRAY);
+  else
+    in.copyTo(gray);
 }
 
 }  // namespace
@@ -38,7 +43,9 @@ void FileSourceOptions::validate() const {
   if (!(fps >= 0 && fps <= 10000)) throw InputError("file source: 'fps' must be in [0, 10000]");
 }
 
-FileSource::FileSource(FileSourceOptions options) : options_(std::move(options)) { options_.validate(); }
+FileSource::FileSource(FileSourceOptions options) : options_(std::move(options)) {
+  options_.validate();
+}
 
 std::string FileSource::describe() const { return "file:" + options_.path; }
 
@@ -49,7 +56,8 @@ void FileSource::open() {
   is_directory_ = fs::is_directory(options_.path, ec);
   if (is_directory_) {
     for (const auto& entry : fs::directory_iterator(options_.path, ec))
-      if (entry.is_regular_file() && is_image(entry.path())) files_.push_back(entry.path().string());
+      if (entry.is_regular_file() && is_image(entry.path()))
+        files_.push_back(entry.path().string());
     std::sort(files_.begin(), files_.end());
     if (files_.empty()) throw SourceError(describe() + ": the directory holds no image");
   } else if (!video_.open(options_.path) || !video_.isOpened()) {
@@ -100,7 +108,8 @@ FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds t
       std::this_thread::sleep_for(timeout);
       return ReadStatus::kTimeout;
     }
-    if (next_due_ns_ > now) std::this_thread::sleep_for(std::chrono::nanoseconds(next_due_ns_ - now));
+    if (next_due_ns_ > now)
+      std::this_thread::sleep_for(std::chrono::nanoseconds(next_due_ns_ - now));
     const auto period = static_cast<std::int64_t>(std::llround(1e9 / options_.fps));
     // A caller that fell behind gets at most one overdue frame at once, not a burst.
     next_due_ns_ = std::max(next_due_ns_ + period, monotonic_ns());

@@ -20,7 +20,8 @@ namespace fs = std::filesystem;
 using v4l2::xioctl;
 
 double fps_of(const v4l2_fract& interval) {
-  return interval.numerator > 0 ? static_cast<double>(interval.denominator) / interval.numerator : 0.0;
+  return interval.numerator > 0 ? static_cast<double>(interval.denominator) / interval.numerator
+                                : 0.0;
 }
 
 void query_intervals(int fd, std::uint32_t fourcc, V4L2FrameSize& size) {
@@ -32,7 +33,8 @@ void query_intervals(int fd, std::uint32_t fourcc, V4L2FrameSize& size) {
     if (ival.type == V4L2_FRMIVAL_TYPE_DISCRETE) {
       size.fps.push_back(fps_of(ival.discrete));
     } else {  // stepwise/continuous: the fastest rate has the shortest interval
-      size.fps_range = fmt::format("{:.4g}-{:.4g} fps", fps_of(ival.stepwise.max), fps_of(ival.stepwise.min));
+      size.fps_range =
+          fmt::format("{:.4g}-{:.4g} fps", fps_of(ival.stepwise.max), fps_of(ival.stepwise.min));
       break;
     }
   }
@@ -51,8 +53,8 @@ void query_sizes(int fd, V4L2FormatInfo& format, std::uint32_t fourcc) {
       format.sizes.push_back(std::move(size));
     } else {
       const auto& s = fs.stepwise;
-      format.size_range = fmt::format("{}x{}-{}x{} step {}x{}", s.min_width, s.min_height, s.max_width,
-                                      s.max_height, s.step_width, s.step_height);
+      format.size_range = fmt::format("{}x{}-{}x{} step {}x{}", s.min_width, s.min_height,
+                                      s.max_width, s.max_height, s.step_width, s.step_height);
       break;
     }
   }
@@ -60,8 +62,10 @@ void query_sizes(int fd, V4L2FormatInfo& format, std::uint32_t fourcc) {
 
 void query_controls(int fd, std::vector<V4L2ControlInfo>& controls) {
   static const std::pair<std::uint32_t, const char*> kControls[] = {
-      {V4L2_CID_EXPOSURE_AUTO, "auto_exposure"}, {V4L2_CID_EXPOSURE_ABSOLUTE, "exposure"},
-      {V4L2_CID_GAIN, "gain"},                   {V4L2_CID_FOCUS_AUTO, "autofocus"},
+      {V4L2_CID_EXPOSURE_AUTO, "auto_exposure"},
+      {V4L2_CID_EXPOSURE_ABSOLUTE, "exposure"},
+      {V4L2_CID_GAIN, "gain"},
+      {V4L2_CID_FOCUS_AUTO, "autofocus"},
       {V4L2_CID_POWER_LINE_FREQUENCY, "power_line_hz"}};
   for (const auto& [id, key] : kControls) {
     v4l2_queryctrl q{};
@@ -94,7 +98,8 @@ V4L2DeviceInfo query_v4l2_device(const std::string& path) {
   info.driver = reinterpret_cast<const char*>(cap.driver);
   info.card = reinterpret_cast<const char*>(cap.card);
   info.bus_info = reinterpret_cast<const char*>(cap.bus_info);
-  const std::uint32_t caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
+  const std::uint32_t caps =
+      (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
   info.capture = (caps & V4L2_CAP_VIDEO_CAPTURE) && (caps & V4L2_CAP_STREAMING);
   if (info.capture) {
     v4l2_fmtdesc desc{};
@@ -119,7 +124,8 @@ std::vector<V4L2DeviceInfo> list_v4l2_devices(const std::string& dev_dir) {
   for (const auto& entry : fs::directory_iterator(dev_dir, ec)) {
     std::smatch m;
     const std::string name = entry.path().filename().string();
-    if (std::regex_match(name, m, kVideoNode)) nodes.emplace_back(std::stoi(m[1]), entry.path().string());
+    if (std::regex_match(name, m, kVideoNode))
+      nodes.emplace_back(std::stoi(m[1]), entry.path().string());
   }
   std::sort(nodes.begin(), nodes.end());
 
@@ -127,7 +133,8 @@ std::vector<V4L2DeviceInfo> list_v4l2_devices(const std::string& dev_dir) {
   std::vector<std::pair<std::string, std::string>> links;  // (canonical target, link)
   for (const char* sub : {"v4l/by-id", "v4l/by-path"})
     for (const auto& entry : fs::directory_iterator(fs::path(dev_dir) / sub, ec))
-      if (auto target = fs::canonical(entry.path(), ec); !ec) links.emplace_back(target.string(), entry.path().string());
+      if (auto target = fs::canonical(entry.path(), ec); !ec)
+        links.emplace_back(target.string(), entry.path().string());
   std::sort(links.begin(), links.end());
 
   std::vector<V4L2DeviceInfo> devices;

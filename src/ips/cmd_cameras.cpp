@@ -19,9 +19,12 @@ std::string rates(const ips::V4L2FrameSize& size) {
 
 // A control in the config's terms: seconds for exposure, Hz for the power line, booleans.
 std::string describe_control(const ips::V4L2ControlInfo& c) {
-  auto power_line = [](int v) { return v == 1 ? "50" : v == 2 ? "60" : v == 0 ? "0 (off)" : "auto"; };
+  auto power_line = [](int v) {
+    return v == 1 ? "50" : v == 2 ? "60" : v == 0 ? "0 (off)" : "auto";
+  };
   if (c.key == "exposure")
-    return fmt::format("exposure: {:.4g}..{:.4g} s, now {:.4g} s", c.min * 1e-4, c.max * 1e-4, c.current * 1e-4);
+    return fmt::format("exposure: {:.4g}..{:.4g} s, now {:.4g} s", c.min * 1e-4, c.max * 1e-4,
+                       c.current * 1e-4);
   if (c.key == "auto_exposure") return fmt::format("auto_exposure: now {}", c.current != 1);
   if (c.key == "autofocus") return fmt::format("autofocus: now {}", c.current != 0);
   if (c.key == "power_line_hz") return fmt::format("power_line_hz: now {}", power_line(c.current));
@@ -33,15 +36,19 @@ void print_device(const ips::V4L2DeviceInfo& d) {
     std::printf("%s: cannot query: %s\n", d.path.c_str(), d.error.c_str());
     return;
   }
-  std::printf("%s: %s (driver %s, bus %s)\n", d.path.c_str(), d.card.c_str(), d.driver.c_str(), d.bus_info.c_str());
+  std::printf("%s: %s (driver %s, bus %s)\n", d.path.c_str(), d.card.c_str(), d.driver.c_str(),
+              d.bus_info.c_str());
   for (const auto& link : d.links) std::printf("  link: %s\n", link.c_str());
   if (!d.capture) {
-    std::printf("  not a capture device (e.g. the metadata node of a UVC camera): not usable as a source\n");
+    std::printf(
+        "  not a capture device (e.g. the metadata node of a UVC camera): not usable as a "
+        "source\n");
     return;
   }
   for (const auto& f : d.formats) {
     std::printf("  %s (%s)\n", f.fourcc.c_str(), f.description.c_str());
-    for (const auto& s : f.sizes) std::printf("    %dx%d @ %s\n", s.width, s.height, rates(s).c_str());
+    for (const auto& s : f.sizes)
+      std::printf("    %dx%d @ %s\n", s.width, s.height, rates(s).c_str());
     if (!f.size_range.empty()) std::printf("    sizes %s\n", f.size_range.c_str());
   }
   if (!d.controls.empty()) std::printf("  controls:\n");
@@ -57,8 +64,10 @@ IPS_REGISTER_COMMAND(
       return [dev_dir] {
         const auto devices = ips::list_v4l2_devices(*dev_dir);
         if (devices.empty()) {
-          std::printf("No V4L2 video devices in %s: no camera is plugged in, or its driver is not loaded "
-                      "(check `lsusb` and `dmesg`).\n", dev_dir->c_str());
+          std::printf(
+              "No V4L2 video devices in %s: no camera is plugged in, or its driver is not loaded "
+              "(check `lsusb` and `dmesg`).\n",
+              dev_dir->c_str());
           return 0;
         }
         int usable = 0;
@@ -66,8 +75,10 @@ IPS_REGISTER_COMMAND(
           print_device(d);
           usable += d.error.empty() && d.capture;
         }
-        std::printf("\n%d capture device(s). In the config, prefer a link under %s/v4l/by-id: "
-                    "/dev/videoN numbers change with plug order.\n", usable, dev_dir->c_str());
+        std::printf(
+            "\n%d capture device(s). In the config, prefer a link under %s/v4l/by-id: "
+            "/dev/videoN numbers change with plug order.\n",
+            usable, dev_dir->c_str());
         return 0;
       };
     });

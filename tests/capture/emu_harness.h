@@ -32,8 +32,8 @@ class TempDir {
  public:
   TempDir() {
     std::random_device rd;
-    path_ = std::filesystem::temp_directory_path() / ("ips-capture-" + std::to_string(getpid()) + "-" +
-                                                      std::to_string(rd()));
+    path_ = std::filesystem::temp_directory_path() /
+            ("ips-capture-" + std::to_string(getpid()) + "-" + std::to_string(rd()));
     std::filesystem::create_directories(path_);
   }
   ~TempDir() {
@@ -65,9 +65,11 @@ inline std::string loaded_asan_runtime() {
 
 /// Runs `argv` with the emulator preloaded, serving `devices` (fake path -> control file).
 inline ChildResult run_emulated(const std::vector<std::string>& argv,
-                                const std::map<std::string, std::string>& devices, const std::string& work_dir) {
+                                const std::map<std::string, std::string>& devices,
+                                const std::string& work_dir) {
   std::string device_list;
-  for (const auto& [path, control] : devices) device_list += (device_list.empty() ? "" : ",") + path + "=" + control;
+  for (const auto& [path, control] : devices)
+    device_list += (device_list.empty() ? "" : ",") + path + "=" + control;
   const std::string asan = loaded_asan_runtime();
   std::map<std::string, std::string> env_map;
   for (char** e = environ; *e; ++e) {
@@ -93,8 +95,10 @@ inline ChildResult run_emulated(const std::vector<std::string>& argv,
   const std::string out_path = work_dir + "/child.out", err_path = work_dir + "/child.err";
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                   0644);
+  posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                   0644);
   pid_t pid = 0;
   ChildResult result;
   const int rc = posix_spawn(&pid, args[0], &actions, nullptr, args.data(), envp.data());
@@ -130,7 +134,8 @@ inline std::string field(const std::string& line, const std::string& key) {
   const std::size_t next = line.find('=', start);
   if (next == std::string::npos) return line.substr(start);
   const std::size_t end = line.rfind(' ', next);
-  return line.substr(start, end == std::string::npos || end < start ? std::string::npos : end - start);
+  return line.substr(start,
+                     end == std::string::npos || end < start ? std::string::npos : end - start);
 }
 
 inline std::vector<std::string> lines_starting(const std::string& text, const std::string& prefix) {

@@ -51,8 +51,8 @@ TEST(FileSource, DirectoryLoopsInNameOrderPacedAndTimestamped) {
     EXPECT_GT(f.t_mono_ns, previous);
     // Paced at 200 fps: frame k is not delivered before open + k * 5 ms.
     EXPECT_GE(f.t_mono_ns - t_open, k * 5'000'000LL);
-    EXPECT_NEAR(static_cast<double>(f.t_real_ns - f.t_mono_ns), static_cast<double>(ips::realtime_minus_monotonic_ns()),
-                5e6);
+    EXPECT_NEAR(static_cast<double>(f.t_real_ns - f.t_mono_ns),
+                static_cast<double>(ips::realtime_minus_monotonic_ns()), 5e6);
     previous = f.t_mono_ns;
   }
 }
@@ -99,8 +99,8 @@ TEST(FileSource, VideoFileLoops) {
   ips::test::TempDir dir;
   const std::string video = dir / "clip.avi";
   {
-    cv::VideoWriter writer(video, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10,
-                           cv::Size(64, 48));
+    cv::VideoWriter writer(video, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                           10, cv::Size(64, 48));
     ASSERT_TRUE(writer.isOpened());
     for (int v : {40, 120, 200}) {
       cv::Mat bgr;
@@ -114,7 +114,9 @@ TEST(FileSource, VideoFileLoops) {
   for (int k = 0; k < 7; ++k) {
     ASSERT_EQ(next(source, f), Status::kFrame) << "frame " << k;
     ASSERT_EQ(f.gray.size(), cv::Size(64, 48));
-    EXPECT_NEAR(f.gray.at<uchar>(20, 20), (std::array{40, 120, 200})[static_cast<std::size_t>(k % 3)], 3) << k;
+    EXPECT_NEAR(f.gray.at<uchar>(20, 20),
+                (std::array{40, 120, 200})[static_cast<std::size_t>(k % 3)], 3)
+        << k;
   }
 }
 

@@ -132,7 +132,8 @@ Config parse_config(const std::string& text, const std::string& path) {
     if (line[0] == '#') continue;
     if (eq == std::string::npos) die(path + ":" + std::to_string(line_no) + ": expected key=value");
     const std::string key = line.substr(0, eq), value = line.substr(eq + 1);
-    if (key == "present") c.present = value == "1";
+    if (key == "present")
+      c.present = value == "1";
     else if (key == "formats") {
       c.formats.clear();
       for (const auto& f : split(value, ',')) {
@@ -142,31 +143,42 @@ Config parse_config(const std::string& text, const std::string& path) {
     } else if (key == "sizes") {
       c.sizes.clear();
       for (const auto& s : split(value, ',')) c.sizes.push_back(parse_size(s));
-    } else if (key == "grant") c.grant = parse_size(value);
-    else if (key == "fps") c.fps = std::stod(value);
-    else if (key == "frames") c.frames_dir = value;
-    else if (key == "corrupt_every") c.corrupt_every = std::stoull(value);
-    else if (key == "drop_every") c.drop_every = std::stoull(value);
-    else if (key == "yuyv_padding") c.yuyv_padding = static_cast<std::uint32_t>(std::stoul(value));
-    else if (key == "unsupported_controls") c.unsupported_controls = split(value, ',');
-    else if (key == "card") c.card = value;
-    else if (key == "bus") c.bus = value;
-    else die(path + ":" + std::to_string(line_no) + ": unknown key '" + key + "'");
+    } else if (key == "grant")
+      c.grant = parse_size(value);
+    else if (key == "fps")
+      c.fps = std::stod(value);
+    else if (key == "frames")
+      c.frames_dir = value;
+    else if (key == "corrupt_every")
+      c.corrupt_every = std::stoull(value);
+    else if (key == "drop_every")
+      c.drop_every = std::stoull(value);
+    else if (key == "yuyv_padding")
+      c.yuyv_padding = static_cast<std::uint32_t>(std::stoul(value));
+    else if (key == "unsupported_controls")
+      c.unsupported_controls = split(value, ',');
+    else if (key == "card")
+      c.card = value;
+    else if (key == "bus")
+      c.bus = value;
+    else
+      die(path + ":" + std::to_string(line_no) + ": unknown key '" + key + "'");
   }
-  if (c.formats.empty() || c.sizes.empty() || !(c.fps > 0)) die(path + ": needs formats, sizes, fps > 0");
+  if (c.formats.empty() || c.sizes.empty() || !(c.fps > 0))
+    die(path + ": needs formats, sizes, fps > 0");
   return c;
 }
 
 struct Device {
   std::string path, canonical, control_path;
   Config config;
-  struct timespec mtime{};
+  struct timespec mtime {};
   ino_t inode = 0;
   off_t file_size = -1;
 
   // Re-reads the control file if it changed since the last look.
   void reload() {
-    struct stat st{};
+    struct stat st {};
     if (::stat(control_path.c_str(), &st) != 0) die("cannot stat control file " + control_path);
     if (st.st_ino == inode && st.st_size == file_size && st.st_mtim.tv_sec == mtime.tv_sec &&
         st.st_mtim.tv_nsec == mtime.tv_nsec)
@@ -259,11 +271,14 @@ std::array<std::atomic<bool>, kMaxFd> g_fake{};  // lock-free test for the commo
 std::mutex g_mutex;
 std::map<int, Handle> g_handles;
 
-bool is_fake(int fd) { return fd >= 0 && fd < kMaxFd && g_fake[static_cast<std::size_t>(fd)].load(); }
+bool is_fake(int fd) {
+  return fd >= 0 && fd < kMaxFd && g_fake[static_cast<std::size_t>(fd)].load();
+}
 
 // What S_FMT grants: the pixel format if offered (else the first one), the nearest size.
 v4l2_pix_format granted_format(const Config& c, std::uint32_t pixfmt, Size want) {
-  if (std::find(c.formats.begin(), c.formats.end(), pixfmt) == c.formats.end()) pixfmt = c.formats[0];
+  if (std::find(c.formats.begin(), c.formats.end(), pixfmt) == c.formats.end())
+    pixfmt = c.formats[0];
   Size size = c.sizes[0];
   auto distance = [&](Size s) {
     return std::labs(static_cast<long>(s.w) - want.w) + std::labs(static_cast<long>(s.h) - want.h);
@@ -356,7 +371,8 @@ void fill(Handle& h, std::uint32_t index, std::uint64_t n) {
 // dropped when none is queued.
 void catch_up(Handle& h, std::int64_t now) {
   if (!h.streaming) return;
-  const auto completed = static_cast<std::uint64_t>(std::max<std::int64_t>(0, (now - h.t0_ns) / h.period_ns()));
+  const auto completed =
+      static_cast<std::uint64_t>(std::max<std::int64_t>(0, (now - h.t0_ns) / h.period_ns()));
   while (h.next_frame < completed) {
     const std::uint64_t n = h.next_frame++;
     if (every(n, h.device->config.drop_every)) continue;
@@ -476,7 +492,8 @@ int handle_ioctl(Handle& h, unsigned long request, void* arg, std::int64_t& wait
       auto* b = static_cast<v4l2_buffer*>(arg);
       if (b->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || b->index >= h.buffers.size()) return EINVAL;
       if (request == VIDIOC_QBUF) {
-        if (b->memory != V4L2_MEMORY_MMAP || h.buffers[b->index].state != Buffer::kIdle) return EINVAL;
+        if (b->memory != V4L2_MEMORY_MMAP || h.buffers[b->index].state != Buffer::kIdle)
+          return EINVAL;
         h.buffers[b->index].state = Buffer::kQueued;
         h.queued.push_back(b->index);
       }
@@ -524,9 +541,10 @@ int handle_ioctl(Handle& h, unsigned long request, void* arg, std::int64_t& wait
     case VIDIOC_S_CTRL: {
       // v4l2_queryctrl and v4l2_control both start with the control id.
       const std::uint32_t id = *static_cast<std::uint32_t*>(arg);
-      const auto it = std::find_if(kControls.begin(), kControls.end(), [&](const Control& k) { return k.id == id; });
-      if (it == kControls.end() || std::count(c.unsupported_controls.begin(),
-                                              c.unsupported_controls.end(), it->name) > 0)
+      const auto it = std::find_if(kControls.begin(), kControls.end(),
+                                   [&](const Control& k) { return k.id == id; });
+      if (it == kControls.end() ||
+          std::count(c.unsupported_controls.begin(), c.unsupported_controls.end(), it->name) > 0)
         return EINVAL;
       if (request == VIDIOC_QUERYCTRL) {
         auto* q = static_cast<v4l2_queryctrl*>(arg);
@@ -757,11 +775,13 @@ int poll(struct pollfd* fds, nfds_t nfds, int timeout_ms) {
   }
 }
 
-int select(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds, struct timeval* timeout) {
+int select(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds,
+           struct timeval* timeout) {
   REAL(select);
   bool any_fake = false;
   for (int fd = 0; fd < nfds && !any_fake; ++fd)
-    any_fake = is_fake(fd) && ((readfds && FD_ISSET(fd, readfds)) || (exceptfds && FD_ISSET(fd, exceptfds)));
+    any_fake = is_fake(fd) &&
+               ((readfds && FD_ISSET(fd, readfds)) || (exceptfds && FD_ISSET(fd, exceptfds)));
   if (!any_fake) return real_select(nfds, readfds, writefds, exceptfds, timeout);
   std::vector<pollfd> p;
   for (int fd = 0; fd < nfds; ++fd) {
