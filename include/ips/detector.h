@@ -5,8 +5,9 @@
 //   2. OpenCV ArUco (4.6 contrib API) candidate search + decoding on the small image, with
 //      only the adaptive-threshold window sizes listed (the default parameters run three
 //      passes at full resolution, which is most of their cost);
-//   3. map the corners back to full resolution and refine them with cv::cornerSubPix there,
-//      so sub-pixel accuracy does not depend on the detection scale.
+//   3. map the corners back to full resolution and refine them there, so sub-pixel accuracy
+//      does not depend on the detection scale: by default by fitting the four edges (see
+//      CornerRefinement), otherwise with cv::cornerSubPix.
 #pragma once
 
 #include <memory>
@@ -15,9 +16,22 @@
 
 #include <opencv2/core.hpp>
 
+#include "ips/camera_model.h"
 #include "ips/observation.h"
 
 namespace ips {
+
+enum class CornerRefinement {
+  /// Locate each edge at many points (mid-grey crossing across the edge), fit a line per
+  /// edge (in undistorted coordinates when a CameraModel is given, where a flat marker's
+  /// edges are straight), intersect. Unbiased on blurred L-corners; falls back to kSubPix
+  /// for a marker whose edges cannot all be measured.
+  kEdges,
+  /// cv::cornerSubPix: biased by ~0.15-0.2 px towards the inside of blurred L-corners.
+  kSubPix,
+  /// The detection-scale polygon corners (~detect_scale px accuracy).
+  kNone,
+};
 
 struct DetectorOptions {
   /// OpenCV predefined dictionary name (DICT_4X4_50 ... DICT_ARUCO_ORIGINAL, DICT_APRILTAG_*).
@@ -38,6 +52,8 @@ struct DetectorOptions {
   /// Fraction of the dictionary's correctable bits accepted when decoding (OpenCV default 0.6).
   /// Lower rejects more false positives, higher recovers more damaged markers.
   double error_correction_rate = 0.6;
+  /// How corners are refined at full resolution.
+  CornerRefinement refinement = CornerRefinement::kEdges;
   /// Half-size of the cv::cornerSubPix search window at full resolution, pixels: the window
   /// is (2w+1)^2. Must exceed the detection-scale corner error (~detect_scale px) and stay
   /// below a marker cell (a 40 px marker of 6 cells has ~6.7 px cells). Default 4.
@@ -56,8 +72,10 @@ class Detector {
   Detector& operator=(Detector&&) noexcept;
 
   /// Finds markers in an 8-bit greyscale image; corners refined to sub-pixel accuracy at
-  /// full resolution. Not thread-safe (reuses buffers); use one Detector per thread.
-  std::vector<MarkerDetection> detect(const cv::Mat& gray);
+  /// full resolution. `camera` (optional, the image's intrinsics) lets edge refinement fit
+  /// straight lines in undistorted coordinates. Not thread-safe (reuses buffers); use one
+  /// Detector per thread.
+  std::vector<MarkerDetection> detect(const cv::Mat& gray, const CameraModel* camera = nullptr);
 
   const DetectorOptions& options() const;
 

@@ -6,6 +6,7 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "edge_refine.h"
 #include "ips/error.h"
 
 namespace ips {
@@ -85,7 +86,7 @@ Detector& Detector::operator=(Detector&&) noexcept = default;
 
 const DetectorOptions& Detector::options() const { return impl_->options; }
 
-std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray) {
+std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraModel* camera) {
   if (gray.empty() || gray.type() != CV_8UC1) {
     throw InputError("detector: expected a non-empty 8-bit greyscale image");
   }
@@ -145,11 +146,33 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray) {
 
   // 3. Back to full resolution (a pixel centre x at scale s is s*x + (s-1)/2 at full
   // scale) and refine there.
+  out.reserve(d.ids.size());
+  for (std::size_t i = 0; i < d.ids.size(); ++i) {
+    MarkerDetection m;
+    m.id = d.ids[i];
+    for (std::size_t k = 0; k < 4; ++k) {
+      const cv::Point2f& c = d.corners[i][k];
+      m.corners_px[k] = {c.x * s + (s - 1) * 0.5, c.y * s + (s - 1) * 0.5};
+    }
+    out.push_back(m);
+  }
+  if (o.refinement == CornerRefinement::kNone) return out;
+  const int cells = d.dictionary->markerSize + 2;
   d.refine.clear();
-  for (const auto& quad : d.corners) {
-    for (const auto& c : quad) {
-      d.refine.emplace_back(static_cast<float>(c.x * s + (s - 1) * 0.5),
-                            static_cast<float>(c.y * s + (s - 1) * 0.5));
+  std::vector<std::size_t> subpix;  // markers refined with cornerSubPix
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    if (o.refinement == CornerRefinement::kEdges) {
+      // Twice: the second pass samples along the edges found by the first.
+      std::array<Point2, 4> c = out[i].corners_px;
+      if (detail::refine_corners_by_edges(gray, c, cells, camera) &&
+          detail::refine_corners_by_edges(gray, c, cells, camera)) {
+        out[i].corners_px = c;
+        continue;
+      }
+    }
+    subpix.push_back(i);
+    for (const auto& c : out[i].corners_px) {
+      d.refine.emplace_back(static_cast<float>(c.x), static_cast<float>(c.y));
     }
   }
   if (!d.refine.empty()) {
@@ -157,16 +180,12 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray) {
     cv::cornerSubPix(gray, d.refine, cv::Size(w, w), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                       o.refine_max_iterations, o.refine_epsilon_px));
-  }
-  out.reserve(d.ids.size());
-  for (std::size_t i = 0; i < d.ids.size(); ++i) {
-    MarkerDetection m;
-    m.id = d.ids[i];
-    for (std::size_t k = 0; k < 4; ++k) {
-      const cv::Point2f& c = d.refine[i * 4 + k];
-      m.corners_px[k] = {c.x, c.y};
+    for (std::size_t j = 0; j < subpix.size(); ++j) {
+      for (std::size_t k = 0; k < 4; ++k) {
+        const cv::Point2f& c = d.refine[j * 4 + k];
+        out[subpix[j]].corners_px[k] = {c.x, c.y};
+      }
     }
-    out.push_back(m);
   }
   return out;
 }

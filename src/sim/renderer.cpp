@@ -4,8 +4,9 @@
 #include <cmath>
 #include <random>
 
+#include <turbojpeg.h>
+
 #include <opencv2/aruco.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "ips/detector.h"
@@ -17,6 +18,7 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr double kWallGrey = 55.0;  // what is seen beyond the floor's edge
+enum Region { kOffPlate = 0, kMargin = 1, kBlack = 2, kWhite = 3 };
 
 // Corners of the black square in marker units (x right, y up as printed), ArUco order.
 constexpr double kCorners[4][2] = {{-0.5, 0.5}, {0.5, 0.5}, {0.5, -0.5}, {-0.5, -0.5}};
@@ -236,6 +238,7 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
   const float black = static_cast<float>(scene_.render.black);
   cv::Mat acc(bh, bw, CV_32F, cv::Scalar(0));
   cv::Mat ab(bh, bw, CV_32FC2);
+  cv::Mat region(bh, bw, CV_8S);
   const Eigen::Matrix3d R = cam.R_wc;
   for (const MarkerPose& pose : pm.poses) {
     const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
@@ -254,11 +257,45 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
         out[x] = {static_cast<float>((c * qx + s * qy) / mk.length), static_cast<float>((-s * qx + c * qy) / mk.length)};
       }
     }
-    // Supersample: sub-pixel marker coordinates by bilinear interpolation of the centres.
+    // Region of every pixel centre: a cell of the pattern, the white margin, or off the plate.
+    auto region_of = [&](double a, double b) -> int {
+      if (!(std::abs(a) <= half_plate && std::abs(b) <= half_plate)) return kOffPlate;  // also NaN
+      if (std::abs(a) >= 0.5 || std::abs(b) >= 0.5) return kMargin;
+      const int col = std::min(cells - 1, static_cast<int>((a + 0.5) * cells));
+      const int row = std::min(cells - 1, static_cast<int>((0.5 - b) * cells));
+      return pattern.at<std::uint8_t>(row, col) == 0 ? kBlack : kWhite;
+    };
+    for (int y = 0; y < bh; ++y) {
+      const auto* r = ab.ptr<cv::Vec2f>(y);
+      auto* g = region.ptr<std::int8_t>(y);
+      for (int x = 0; x < bw; ++x) g[x] = static_cast<std::int8_t>(region_of(r[x][0], r[x][1]));
+    }
+    auto value_of = [&](int reg, float bg_value, float gain) -> float {
+      switch (reg) {
+        case kBlack: return black * gain;
+        case kWhite:
+        case kMargin: return white * gain;
+        default: return bg_value;  // off the plate (or no ray): what was there
+      }
+    };
     for (int y = 0; y < bh; ++y) {
       const auto* bg = gray.ptr<std::uint8_t>(by0 + y) + bx0;
+      const float* gain = gain_.ptr<float>(by0 + y) + bx0;
       float* a_out = acc.ptr<float>(y);
+      const auto* reg = region.ptr<std::int8_t>(y);
       for (int x = 0; x < bw; ++x) {
+        // A pixel whose centre and diagonal neighbours' centres share a region lies wholly
+        // inside it (regions are convex and the mapping is smooth): no supersampling needed.
+        if (y > 0 && y + 1 < bh && x > 0 && x + 1 < bw) {
+          const int here = reg[x];
+          const auto* up = region.ptr<std::int8_t>(y - 1);
+          const auto* dn = region.ptr<std::int8_t>(y + 1);
+          if (up[x - 1] == here && up[x + 1] == here && dn[x - 1] == here && dn[x + 1] == here) {
+            a_out[x] += value_of(here, bg[x], gain[x]);
+            continue;
+          }
+        }
+        // Supersample: sub-pixel marker coordinates by bilinear interpolation of the centres.
         float sum = 0.0f;
         for (int sy = 0; sy < S; ++sy) {
           const double fy = y + (sy + 0.5) / S - 0.5;
@@ -272,16 +309,7 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
             const double tx = fx - ix;
             const double a = (1 - ty) * ((1 - tx) * r0[ix][0] + tx * r0[ix + 1][0]) + ty * ((1 - tx) * r1[ix][0] + tx * r1[ix + 1][0]);
             const double b = (1 - ty) * ((1 - tx) * r0[ix][1] + tx * r0[ix + 1][1]) + ty * ((1 - tx) * r1[ix][1] + tx * r1[ix + 1][1]);
-            float v = bg[x];  // off the plate (or no ray): what was there
-            if (std::abs(a) <= half_plate && std::abs(b) <= half_plate) {
-              v = white * gain_.at<float>(by0 + y, bx0 + x);
-              if (std::abs(a) < 0.5 && std::abs(b) < 0.5) {
-                const int col = std::min(cells - 1, static_cast<int>((a + 0.5) * cells));
-                const int row = std::min(cells - 1, static_cast<int>((0.5 - b) * cells));
-                if (pattern.at<std::uint8_t>(row, col) == 0) v = black * gain_.at<float>(by0 + y, bx0 + x);
-              }
-            }
-            sum += v;
+            sum += value_of(region_of(a, b), bg[x], gain[x]);
           }
         }
         a_out[x] += sum / static_cast<float>(S * S);
@@ -298,15 +326,32 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
 
 std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool colour) {
   if (quality < 1 || quality > 100) throw InputError("JPEG quality must be 1..100, got " + std::to_string(quality));
-  std::vector<std::uint8_t> out;
-  const std::vector<int> params{cv::IMWRITE_JPEG_QUALITY, quality};
+  if (gray.type() != CV_8UC1 || gray.empty()) throw std::invalid_argument("encode_jpeg: expected CV_8UC1");
+  // One compressor per thread: tjInitCompress allocates, frames come at video rate.
+  struct Handle {
+    tjhandle h = tjInitCompress();
+    ~Handle() { tjDestroy(h); }
+  };
+  thread_local Handle handle;
+  if (handle.h == nullptr) throw std::runtime_error("libjpeg-turbo: tjInitCompress failed");
+  cv::Mat src = gray;
+  int format = TJPF_GRAY;
+  int subsampling = TJSAMP_GRAY;
   if (colour) {
-    cv::Mat bgr;
-    cv::cvtColor(gray, bgr, cv::COLOR_GRAY2BGR);
-    cv::imencode(".jpg", bgr, out, params);
-  } else {
-    cv::imencode(".jpg", gray, out, params);
+    cv::cvtColor(gray, src, cv::COLOR_GRAY2BGR);
+    format = TJPF_BGR;
+    subsampling = TJSAMP_420;
   }
+  unsigned char* buf = nullptr;
+  unsigned long size = 0;
+  if (tjCompress2(handle.h, src.data, src.cols, static_cast<int>(src.step), src.rows, format, &buf, &size,
+                  subsampling, quality, TJFLAG_FASTDCT) != 0) {
+    const std::string err = tjGetErrorStr2(handle.h);
+    tjFree(buf);
+    throw std::runtime_error("libjpeg-turbo: " + err);
+  }
+  std::vector<std::uint8_t> out(buf, buf + size);
+  tjFree(buf);
   return out;
 }
 
