@@ -52,6 +52,18 @@ struct DetectorOptions {
   /// Fraction of the dictionary's correctable bits accepted when decoding (OpenCV default 0.6).
   /// Lower rejects more false positives, higher recovers more damaged markers.
   double error_correction_rate = 0.6;
+  /// Fraction of the border cells allowed to read white (OpenCV default 0.35). Lower rejects
+  /// more non-marker squares, higher tolerates blur and glare on the border.
+  double max_border_error_rate = 0.35;
+  /// Verification after decoding: a cell whose centre reads within `cell_ambiguity` x
+  /// contrast of the black/white mid level is ambiguous; a marker with more than
+  /// `max_ambiguous_cells` of them is rejected (a square of another grid, e.g. a 6x6
+  /// marker, misread as this dictionary). Negative max disables the check.
+  int max_ambiguous_cells = 2;
+  double cell_ambiguity = 0.2;
+  /// A marker whose black border and white quiet zone differ by less than this many grey
+  /// levels is rejected by the verification.
+  double min_contrast = 25.0;
   /// How corners are refined at full resolution.
   CornerRefinement refinement = CornerRefinement::kEdges;
   /// Half-size of the cv::cornerSubPix search window at full resolution, pixels: the window

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "edge_refine.h"
+#include "verify.h"
 #include "ips/error.h"
 
 namespace ips {
@@ -76,6 +77,7 @@ Detector::Detector(const DetectorOptions& options) : impl_(std::make_unique<Impl
   p->adaptiveThreshConstant = o.threshold_constant;
   p->maxMarkerPerimeterRate = o.max_perimeter_rate;
   p->errorCorrectionRate = o.error_correction_rate;
+  p->maxErroneousBitsInBorderRate = o.max_border_error_rate;
   p->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;  // refined at full resolution below
   impl_->params = p;
 }
@@ -156,11 +158,10 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraM
     }
     out.push_back(m);
   }
-  if (o.refinement == CornerRefinement::kNone) return out;
   const int cells = d.dictionary->markerSize + 2;
   d.refine.clear();
   std::vector<std::size_t> subpix;  // markers refined with cornerSubPix
-  for (std::size_t i = 0; i < out.size(); ++i) {
+  for (std::size_t i = 0; o.refinement != CornerRefinement::kNone && i < out.size(); ++i) {
     if (o.refinement == CornerRefinement::kEdges) {
       // Twice: the second pass samples along the edges found by the first.
       std::array<Point2, 4> c = out[i].corners_px;
@@ -186,6 +187,13 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraM
         out[subpix[j]].corners_px[k] = {c.x, c.y};
       }
     }
+  }
+  // 4. Verify: every cell must read clearly black or white.
+  if (o.max_ambiguous_cells >= 0) {
+    std::erase_if(out, [&](const MarkerDetection& m) {
+      return detail::count_ambiguous_cells(gray, m.corners_px, cells, o.cell_ambiguity, o.min_contrast) >
+             o.max_ambiguous_cells;
+    });
   }
   return out;
 }
