@@ -40,9 +40,11 @@ struct DetectorOptions {
   /// 2 quarters the threshold/contour cost; markers 40-200 px wide at 1080p stay >= 20 px.
   int detect_scale = 2;
   /// Adaptive-threshold window sizes (odd, pixels at the detection scale), one threshold +
-  /// contour pass each. More windows find markers under harsher lighting at a cost of
-  /// ~1 ms per window at 960x540. OpenCV's default is 3, 13, 23 at full resolution.
-  std::vector<int> threshold_windows = {9, 19};
+  /// contour pass each (~1.5 ms per window at 960x540). OpenCV's default is 3, 13, 23 at
+  /// full resolution (three passes). One 9 px window at half scale (18 px at full scale)
+  /// marks a band along every dark/bright edge, which outlines markers of 40-200 px under
+  /// smooth lighting gradients; add e.g. 19 for strongly uneven or very blurred images.
+  std::vector<int> threshold_windows = {9};
   /// Constant subtracted from the local mean in adaptive thresholding, grey levels (OpenCV default 7).
   double threshold_constant = 7.0;
   /// Smallest marker perimeter considered, full-resolution pixels (a 40 px marker has 160).
