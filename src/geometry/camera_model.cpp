@@ -272,7 +272,8 @@ Point2 CameraModel::undistort(Point2 px) const {
       const double df = 1 + t2 * (3 * D_[0] + t2 * (5 * D_[1] + t2 * (7 * D_[2] + t2 * 9 * D_[3])));
       const double step = f / df;
       th -= step;
-      if (std::abs(step) < 1e-16 * std::max(1.0, th)) break;
+      // Quadratic convergence: once a step is below 1e-9 rad the remaining error is ~1e-18.
+      if (std::abs(step) < 1e-9) break;
     }
     if (!(th > 0.0 && th <= max_theta_ + 1e-6)) return {kNaN, kNaN};
     const double s = std::tan(th) / thd;

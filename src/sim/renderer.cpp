@@ -2,7 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <random>
+#include <tuple>
 
 #include <turbojpeg.h>
 
@@ -65,6 +70,51 @@ class FloorTexture {
   double cells_[2] = {1, 1};
 };
 
+// The ray map and the noise pool depend only on the camera (resp. the noise settings) and
+// take ~1 s to build at 1080p, so they are built once per process and shared by every
+// renderer of the same camera (several sources of one scene, repeated tests).
+std::shared_ptr<const cv::Mat> ray_map(const CameraModel& model) {
+  char key[512];
+  std::snprintf(key, sizeof key, "%d %dx%d K %.17g %.17g %.17g %.17g %.17g D", static_cast<int>(model.kind()),
+                model.size().width, model.size().height, model.K()(0, 0), model.K()(0, 1), model.K()(0, 2),
+                model.K()(1, 1), model.K()(1, 2));
+  std::string k = key;
+  for (double d : model.D()) {
+    std::snprintf(key, sizeof key, " %.17g", d);
+    k += key;
+  }
+  static std::mutex mutex;
+  static std::map<std::string, std::shared_ptr<const cv::Mat>> cache;
+  const std::lock_guard lock(mutex);
+  if (auto it = cache.find(k); it != cache.end()) return it->second;
+  auto uv = std::make_shared<cv::Mat>(model.size(), CV_32FC2);
+  cv::parallel_for_(cv::Range(0, model.size().height), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      auto* row = uv->ptr<cv::Vec2f>(y);
+      for (int x = 0; x < model.size().width; ++x) {
+        const Point2 n = model.undistort({static_cast<double>(x), static_cast<double>(y)});
+        row[x] = std::isnan(n.x) ? cv::Vec2f(kNaNf, kNaNf) : cv::Vec2f(static_cast<float>(n.x), static_cast<float>(n.y));
+      }
+    }
+  });
+  cache.emplace(k, uv);
+  return uv;
+}
+
+std::shared_ptr<const std::vector<std::int8_t>> noise_pool(double sigma, unsigned seed, std::size_t size) {
+  static std::mutex mutex;
+  static std::map<std::tuple<double, unsigned, std::size_t>, std::shared_ptr<const std::vector<std::int8_t>>> cache;
+  const std::lock_guard lock(mutex);
+  const auto key = std::make_tuple(sigma, seed, size);
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> normal(0.0f, static_cast<float>(sigma));
+  auto pool = std::make_shared<std::vector<std::int8_t>>(size);
+  for (auto& v : *pool) v = static_cast<std::int8_t>(std::clamp(std::lround(normal(rng)), -127L, 127L));
+  cache.emplace(key, pool);
+  return pool;
+}
+
 }  // namespace
 
 cv::Mat marker_pattern(const std::string& dictionary, int id) {
@@ -85,7 +135,7 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
   const SceneCamera& cam = camera();
   width_ = cam.model.size().width;
   height_ = cam.model.size().height;
-  uv_.create(height_, width_, CV_32FC2);
+  uv_ = ray_map(cam.model);
   gain_.create(height_, width_, CV_32F);
   background_.create(height_, width_, CV_8U);
   const FloorTexture texture(scene.floor);
@@ -94,20 +144,18 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
   const double r_corner = std::hypot(std::max(cx, width_ - cx), std::max(cy, height_ - cy));
   cv::parallel_for_(cv::Range(0, height_), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
-      auto* uv = uv_.ptr<cv::Vec2f>(y);
+      const auto* uv = uv_->ptr<cv::Vec2f>(y);
       auto* gain = gain_.ptr<float>(y);
       auto* bg = background_.ptr<std::uint8_t>(y);
       for (int x = 0; x < width_; ++x) {
-        const Point2 n = cam.model.undistort({static_cast<double>(x), static_cast<double>(y)});
+        const Point2 n{uv[x][0], uv[x][1]};
         const double r = std::hypot(x - cx, y - cy) / r_corner;
         double g = 1.0 - rs.vignetting * r * r;
         if (std::isnan(n.x)) {
-          uv[x] = {kNaNf, kNaNf};
           gain[x] = static_cast<float>(g);
           bg[x] = 0;  // beyond the lens' image circle
           continue;
         }
-        uv[x] = {static_cast<float>(n.x), static_cast<float>(n.y)};
         const Eigen::Vector3d d = cam.R_wc * Eigen::Vector3d(n.x, n.y, 1.0);
         double grey = kWallGrey;
         if (d.z() < -1e-9) {
@@ -123,10 +171,8 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
     }
   });
   // Noise pool: larger than a frame so that each frame takes a different window of it.
-  std::mt19937 rng(rs.seed * 7919u + static_cast<unsigned>(camera_index));
-  std::normal_distribution<float> normal(0.0f, static_cast<float>(rs.noise_sigma));
-  noise_.resize(static_cast<std::size_t>(width_) * height_ * 2);
-  for (auto& v : noise_) v = static_cast<std::int8_t>(std::clamp(std::lround(normal(rng)), -127L, 127L));
+  noise_ = noise_pool(rs.noise_sigma, rs.seed * 7919u + static_cast<unsigned>(camera_index),
+                      static_cast<std::size_t>(width_) * height_ * 2);
 }
 
 MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose& pose) const {
@@ -185,10 +231,10 @@ void CameraRenderer::render_markers(const std::vector<PlacedMarker>& markers, cv
   for (const auto& m : markers) draw_marker(m, gray);
   if (scene_.render.noise_sigma > 0) {
     const std::size_t n = static_cast<std::size_t>(width_) * height_;
-    const std::size_t range = noise_.size() - n;
+    const std::size_t range = noise_->size() - n;
     // Odd multiplier: consecutive frames take far-apart windows of the pool.
     const std::size_t offset = static_cast<std::size_t>((noise_index * 2654435761ULL) % range);
-    const std::int8_t* noise = noise_.data() + offset;
+    const std::int8_t* noise = noise_->data() + offset;
     std::uint8_t* px = gray.ptr<std::uint8_t>(0);
     for (std::size_t i = 0; i < n; ++i) {
       const int v = px[i] + noise[i];
@@ -243,7 +289,7 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
   for (const MarkerPose& pose : pm.poses) {
     const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
     for (int y = 0; y < bh; ++y) {
-      const auto* uv = uv_.ptr<cv::Vec2f>(by0 + y) + bx0;
+      const auto* uv = uv_->ptr<cv::Vec2f>(by0 + y) + bx0;
       auto* out = ab.ptr<cv::Vec2f>(y);
       for (int x = 0; x < bw; ++x) {
         const Eigen::Vector3d d = R * Eigen::Vector3d(uv[x][0], uv[x][1], 1.0);
