@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include <Eigen/Geometry>
+#include <opencv2/aruco.hpp>
 #include <yaml-cpp/yaml.h>
 
 #include "ips/detector.h"
@@ -261,6 +262,8 @@ Scene Scene::load(const std::filesystem::path& path) {
     scene.cameras.push_back(std::move(cam));
   }
 
+  const int dictionary_size =
+      cv::aruco::getPredefinedDictionary(dictionary_id(scene.dictionary))->bytesList.rows;
   if (const YAML::Node ms = root["markers"]) {
     if (!ms.IsSequence()) r.fail(ms, "markers", "expected a list");
     for (std::size_t i = 0; i < ms.size(); ++i) {
@@ -271,6 +274,9 @@ Scene Scene::load(const std::filesystem::path& path) {
       const double id = r.number(m, p, "id", 0, true);
       if (id < 0 || id != std::floor(id)) r.fail(m["id"], p + "id", "must be a non-negative integer");
       mk.id = static_cast<int>(id);
+      if (mk.id >= dictionary_size) {
+        r.fail(m["id"], p + "id", "not in " + scene.dictionary + " (0.." + std::to_string(dictionary_size - 1) + ")");
+      }
       for (const auto& other : scene.markers) {
         if (other.id == mk.id) r.fail(m["id"], p + "id", "duplicate marker id " + std::to_string(mk.id));
       }

@@ -133,6 +133,7 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
       {"bad_traj.yaml", cam + "markers:\n  - id: 1\n    trajectory: {type: spiral, speed: 1}\n", "markers[0].trajectory.type"},
       {"bad_radius.yaml", cam + "markers:\n  - id: 1\n    trajectory: {type: circle, center: [1, 1], radius: -2, speed: 1}\n", "radius"},
       {"no_xy.yaml", cam + "markers:\n  - id: 1\n    length: 0.2\n", "markers[0].x"},
+      {"bad_id.yaml", cam + "markers:\n  - {id: 100, x: 1, y: 1}\n", "markers[0].id"},
       {"bad_dict.yaml", "dictionary: DICT_9X9\n" + cam, "dictionary"},
       {"bad_quality.yaml", cam + "render: {jpeg_quality: 101}\n", "render.jpeg_quality"},
       {"broken.yaml", cam + "markers: [\n", "YAML"},

@@ -6,6 +6,10 @@
 // (one per camera) therefore agree on the scene time of any capture time, and the truth of a
 // frame is scene.marker_pose(id, source.scene_time(frame.t_mono_ns)).
 //
+// Buffers: read() renders/decodes into `out.gray`, reusing its buffer when it is the same
+// size, like the other sources: keep a frame beyond the next read() by cloning it (or by
+// passing a fresh Frame).
+//
 // Pacing: `realtime` sleeps until each frame's capture time, like a camera; if rendering
 // falls behind, frames are skipped (sequence numbers jump, as with driver drops). Otherwise
 // frames come as fast as they render, still stamped with their simulated capture times.
