@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,9 +21,10 @@ namespace ips {
 struct ModelSet;
 
 enum class SourceKind { kV4l2, kFile, kSynthetic };
-enum class PixelFormat { kMjpeg, kYuyv };
+/// Pixel format requested from a V4L2 camera (named apart from the capture stage's own enum).
+enum class CaptureFormat { kMjpeg, kYuyv };
 const char* to_string(SourceKind kind);
-const char* to_string(PixelFormat format);
+const char* to_string(CaptureFormat format);
 
 /// One camera. Fields a source does not use are ignored by it (but still type-checked).
 struct CameraConfig {
@@ -34,8 +36,14 @@ struct CameraConfig {
   std::string device;        ///< device path, prefer /dev/v4l/by-id/...; required for v4l2
   int width = 1920;          ///< requested frame size, pixels (v4l2; file frames are checked)
   int height = 1080;
-  PixelFormat pixel_format = PixelFormat::kMjpeg;  ///< v4l2: MJPEG | YUYV
-  std::map<std::string, std::int64_t> controls;    ///< v4l2 controls by name, e.g. exposure_absolute: 150
+  CaptureFormat pixel_format = CaptureFormat::kMjpeg;  ///< v4l2: MJPEG | YUYV (the other is the fallback)
+  int buffer_count = 4;      ///< v4l2: mmap buffers (>= 4)
+  /// v4l2 controls (cameras.controls.*); unset = leave the device's setting alone.
+  std::optional<bool> auto_exposure;   ///< controls.auto_exposure: true = automatic exposure
+  std::optional<double> exposure_s;    ///< controls.exposure: manual exposure time, seconds
+  std::optional<int> gain;             ///< controls.gain: analogue gain, device units
+  std::optional<bool> autofocus;       ///< controls.autofocus
+  std::optional<int> power_line_hz;    ///< controls.power_line_hz: 50 | 60 | 0 (anti-flicker off)
   // file
   std::filesystem::path path;  ///< file: a video file or a directory of images; required for file
   bool loop = true;            ///< file: start again at the end (false: the source ends -> reopened)
@@ -44,7 +52,8 @@ struct CameraConfig {
   std::string scene_camera;     ///< synthetic: camera of the scene to render; default: `name`
   // every source
   double fps = 30.0;            ///< frames per second requested (v4l2) or paced (file, synthetic)
-  std::filesystem::path intrinsics;  ///< camera intrinsics file (CameraModel::load); required
+  std::filesystem::path intrinsics;  ///< camera intrinsics file (CameraModel::load); required except
+                                     ///< for synthetic cameras (default: the scene camera's)
   bool required = false;        ///< true: failing to open at start is fatal (exit 1)
 };
 

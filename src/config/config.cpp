@@ -21,7 +21,7 @@ const char* to_string(SourceKind kind) {
   return "?";
 }
 
-const char* to_string(PixelFormat format) { return format == PixelFormat::kMjpeg ? "MJPEG" : "YUYV"; }
+const char* to_string(CaptureFormat format) { return format == CaptureFormat::kMjpeg ? "MJPEG" : "YUYV"; }
 
 MarkerSizes MarkerConfig::sizes() const {
   MarkerSizes s;
@@ -173,17 +173,30 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
   r.get("width", c.width);
   r.get("height", c.height);
   if (c.width <= 0 || c.height <= 0) r.fail(n, r.key("width/height"), "must be positive");
-  c.pixel_format = pick<PixelFormat>(r, "pixel_format", {{"MJPEG", PixelFormat::kMjpeg}, {"YUYV", PixelFormat::kYuyv}},
-                                     c.pixel_format, false);
+  c.pixel_format = pick<CaptureFormat>(r, "pixel_format", {{"MJPEG", CaptureFormat::kMjpeg}, {"YUYV", CaptureFormat::kYuyv}},
+                                       c.pixel_format, false);
+  r.get("buffer_count", c.buffer_count);
+  if (c.buffer_count < 4) r.fail(n["buffer_count"], r.key("buffer_count"), "must be >= 4");
   if (r.has("controls")) {
-    MapReader controls(r.node("controls"), r.key("controls"), file);
-    for (const auto& kv : controls.raw()) {
-      const std::string name = kv.first.as<std::string>();
-      std::int64_t v = 0;
-      controls.get(name, v);
-      c.controls[name] = v;
-    }
-    controls.finish();
+    MapReader k(r.node("controls"), r.key("controls"), file);
+    auto opt = [&k](const std::string& key, auto& field) {
+      using T = typename std::remove_reference_t<decltype(field)>::value_type;
+      if (!k.has(key)) return;
+      T v{};
+      k.get(key, v);
+      field = v;
+    };
+    opt("auto_exposure", c.auto_exposure);
+    opt("exposure", c.exposure_s);
+    // Seconds, not the V4L2 100-us units: a value like 150 is almost surely a unit mistake.
+    if (c.exposure_s && !(*c.exposure_s > 0 && *c.exposure_s <= 1.0))
+      k.fail(k.raw()["exposure"], k.key("exposure"), "must be in (0, 1] seconds");
+    opt("gain", c.gain);
+    opt("autofocus", c.autofocus);
+    opt("power_line_hz", c.power_line_hz);
+    if (c.power_line_hz && *c.power_line_hz != 0 && *c.power_line_hz != 50 && *c.power_line_hz != 60)
+      k.fail(k.raw()["power_line_hz"], k.key("power_line_hz"), "must be 50, 60 or 0");
+    k.finish();
   }
   r.get_path("path", c.path, base, c.source == SourceKind::kFile);
   r.get("loop", c.loop);
@@ -191,7 +204,7 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
   c.scene_camera = c.name;
   r.get("scene_camera", c.scene_camera);
   r.get_number("fps", c.fps, 0.0, true);
-  r.get_path("intrinsics", c.intrinsics, base, true);
+  r.get_path("intrinsics", c.intrinsics, base, c.source != SourceKind::kSynthetic);
   r.get("required", c.required);
   r.finish();
   return c;

@@ -59,7 +59,8 @@ TEST_F(ConfigTest, MinimalConfigGetsTheDocumentedDefaults) {
   EXPECT_EQ(cam.device, "/dev/video0");
   EXPECT_EQ(cam.width, 1920);
   EXPECT_EQ(cam.height, 1080);
-  EXPECT_EQ(cam.pixel_format, PixelFormat::kMjpeg);
+  EXPECT_EQ(cam.pixel_format, CaptureFormat::kMjpeg);
+  EXPECT_FALSE(cam.exposure_s.has_value());
   EXPECT_DOUBLE_EQ(cam.fps, 30.0);
   EXPECT_FALSE(cam.required);
   EXPECT_EQ(cam.intrinsics, dir_ / "red.yaml");
@@ -86,7 +87,7 @@ TEST_F(ConfigTest, FullConfigIsReadKeyByKey) {
     height: 720
     pixel_format: YUYV
     fps: 15
-    controls: {exposure_auto: 1, exposure_absolute: 150}
+    controls: {auto_exposure: false, exposure: 0.004, gain: 20, autofocus: false, power_line_hz: 50}
     intrinsics: red.yaml
     required: true
   - name: sim
@@ -118,9 +119,12 @@ watchdog: {stall_timeout: 3}
   const auto& left = c.cameras[0];
   EXPECT_EQ(left.model, "red");
   EXPECT_EQ(left.width, 1280);
-  EXPECT_EQ(left.pixel_format, PixelFormat::kYuyv);
+  EXPECT_EQ(left.pixel_format, CaptureFormat::kYuyv);
   EXPECT_DOUBLE_EQ(left.fps, 15.0);
-  EXPECT_EQ(left.controls.at("exposure_absolute"), 150);
+  EXPECT_EQ(left.auto_exposure, false);
+  EXPECT_DOUBLE_EQ(left.exposure_s.value(), 0.004);
+  EXPECT_EQ(left.gain, 20);
+  EXPECT_EQ(left.power_line_hz, 50);
   EXPECT_TRUE(left.required);
   const auto& sim = c.cameras[1];
   EXPECT_EQ(sim.index, 1);
@@ -178,6 +182,12 @@ TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
                {"cameras[1].name: duplicate camera name 'a'"});
   expect_error("cameras: [\nmodel_file", {"ipsd.yaml:", "not valid YAML"});
   expect_error("", {"empty configuration"});
+  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {exposure: 150}}\nmodel_file: model.json\n",
+               {"cameras[0].controls.exposure: must be in (0, 1] seconds"});
+  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {power_line_hz: 55}}\nmodel_file: model.json\n",
+               {"cameras[0].controls.power_line_hz: must be 50, 60 or 0"});
+  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {brightness: 3}}\nmodel_file: model.json\n",
+               {"cameras[0].controls.brightness: unknown key"});
 }
 
 TEST_F(ConfigTest, LoadReadsTheFileAndRefusesAMissingOne) {
