@@ -55,6 +55,8 @@ struct CameraConfig {
   std::filesystem::path intrinsics;  ///< camera intrinsics file (CameraModel::load); required except
                                      ///< for synthetic cameras (default: the scene camera's)
   bool required = false;        ///< true: failing to open at start is fatal (exit 1)
+
+  bool operator==(const CameraConfig&) const = default;
 };
 
 /// Per-marker settings (markers.ids.<id>).
@@ -84,6 +86,8 @@ struct OutputConfig {
   int ttl = 1;                      ///< multicast TTL (1 = this subnet only)
   std::string interface;            ///< multicast: IPv4 address of the sending interface; "" = default route
   std::string describe() const;     ///< "multicast 239.1.2.3:5005 (json)"
+
+  bool operator==(const OutputConfig&) const = default;
 };
 
 struct FusionConfig {
