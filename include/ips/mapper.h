@@ -1,6 +1,7 @@
 // Camera -> world mappers: one fitted per camera, chosen by name from a registry.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -25,6 +26,11 @@ struct FitOptions {
   int folds = 10;                      ///< k for the cross-validation `auto` runs
 };
 
+/// "3d" / "2d".
+std::string metric_name(ErrorMetric metric);
+/// Parses "3d" / "2d"; throws ips::InputError naming `where` otherwise.
+ErrorMetric parse_metric(const std::string& text, const std::string& where);
+
 /// Maps a marker's camera coordinates (xc, yc, zc) to world coordinates (xw, yw, zw), metres.
 class Mapper {
  public:
@@ -47,6 +53,10 @@ class Mapper {
 
   /// True for mappers that need the marker height (the `plane` mapper).
   virtual bool needs_height() const { return false; }
+
+  /// The fewest training pairs fit() accepts for this method (checked before fitting,
+  /// so a data file with too few rows for a camera is refused with a clear message).
+  virtual std::size_t min_points() const = 0;
 
   /// The fitted parameters, enough for from_json() to reproduce predict() bit for bit.
   virtual nlohmann::json to_json() const = 0;
