@@ -25,19 +25,31 @@ std::string where(const CameraConfig& c) { return "cameras[" + std::to_string(c.
 [[noreturn]] void not_built(const CameraConfig& c) {
   throw InputError(where(c) + ".source: '" + to_string(c.source) + "' sources are not part of this build");
 }
+
+#ifdef IPS_HAVE_SYNTHETIC
+// The scene of a synthetic camera, checked to have the camera; errors name the key.
+sim::Scene load_scene(const CameraConfig& c) {
+  sim::Scene scene;
+  try {
+    scene = sim::Scene::load(c.scene);
+  } catch (const InputError& e) {
+    throw InputError(where(c) + ".scene: " + e.what());
+  }
+  try {
+    (void)scene.camera_index(c.scene_camera);
+  } catch (const InputError& e) {
+    throw InputError(where(c) + ".scene_camera: " + e.what());
+  }
+  return scene;
+}
+#endif
 }  // namespace
 
 SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& context) {
   switch (c.source) {
     case SourceKind::kSynthetic: {
 #ifdef IPS_HAVE_SYNTHETIC
-      std::shared_ptr<const sim::Scene> scene;
-      try {
-        scene = std::make_shared<const sim::Scene>(sim::Scene::load(c.scene));
-        (void)scene->camera_index(c.scene_camera);
-      } catch (const InputError& e) {
-        throw InputError(where(c) + ".scene: " + e.what());
-      }
+      const auto scene = std::make_shared<const sim::Scene>(load_scene(c));
       sim::SyntheticSourceOptions o;
       o.camera = c.scene_camera;
       o.fps = c.fps;
@@ -103,7 +115,7 @@ CameraModel load_intrinsics(const CameraConfig& c) {
   }
 #ifdef IPS_HAVE_SYNTHETIC
   if (c.source == SourceKind::kSynthetic) {
-    const sim::Scene scene = sim::Scene::load(c.scene);
+    const sim::Scene scene = load_scene(c);
     return scene.cameras.at(scene.camera_index(c.scene_camera)).model;
   }
 #endif

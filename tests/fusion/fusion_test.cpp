@@ -91,7 +91,7 @@ class StretchMapper : public Mapper {
   void fit(std::span<const Eigen::Vector3d>, std::span<const Eigen::Vector3d>, const FitOptions&) override {}
   Eigen::Vector3d predict(const Eigen::Vector3d& c, double h) const override { return {2 * c.x() + 1, c.y() - 3, h}; }
   bool needs_height() const override { return true; }
-  std::size_t min_points() const { return 0; }  // overrides once the mapping stage's contract lands
+  std::size_t min_points() const override { return 0; }
   nlohmann::json to_json() const override { return {}; }
   void from_json(const nlohmann::json&) override {}
 };
