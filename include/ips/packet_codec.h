@@ -1,0 +1,60 @@
+// The position stream's two encodings (binary, see ips/wire.h; JSON lines) and their decoder.
+// Encoding writes every field with explicit little-endian byte order (never a host struct).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace ips {
+
+enum class WireFormat { kBinary, kJson };
+
+/// "binary" | "json" -> format; throws ips::InputError naming `where` otherwise.
+WireFormat parse_wire_format(const std::string& name, const std::string& where);
+const char* to_string(WireFormat format);
+
+/// One marker of a fused update. Units SI (metres, radians, m/s).
+struct MarkerRecord {
+  std::uint32_t id = 0;
+  std::uint32_t camera_mask = 0;  ///< bit i = camera i (configuration order) contributed
+  double x = 0, y = 0, z = 0;     ///< world position, metres
+  double yaw = 0;                 ///< world heading, radians
+  double quality = 0;             ///< sum of contributing marker areas, px^2
+  double spread = 0;              ///< max distance of a camera's estimate from the fused one, m
+  std::int32_t dt_us = 0;         ///< marker capture time - header capture time, microseconds
+  double vx = 0, vy = 0, vz = 0;  ///< velocity, m/s (only meaningful if the datagram has_velocity)
+};
+
+/// One datagram's content (either format).
+struct Datagram {
+  std::uint16_t version = 1;
+  bool has_velocity = false;
+  std::uint32_t sequence = 0;  ///< per-output datagram counter
+  std::uint32_t update = 0;    ///< fused-update counter
+  std::uint8_t part = 0;
+  std::uint8_t parts = 1;
+  std::int64_t capture_realtime_ns = 0;
+  std::int64_t capture_monotonic_ns = 0;
+  std::int64_t publish_realtime_ns = 0;
+  std::vector<MarkerRecord> markers;
+};
+
+/// Binary form of `d` (exactly IPS_WIRE_HEADER_SIZE + n * record size bytes).
+std::vector<std::uint8_t> encode_binary(const Datagram& d);
+/// JSON form of `d`: one object, terminated by '\n'.
+std::string encode_json(const Datagram& d);
+std::vector<std::uint8_t> encode(const Datagram& d, WireFormat format);
+
+/// Splits the markers of one update into datagrams of at most IPS_WIRE_MAX_DATAGRAM bytes in
+/// `format`, filling part/parts (sequence is left for the sender). An update with no markers
+/// gives one datagram. Throws std::length_error beyond 255 parts (never in practice: ~7000 markers).
+std::vector<Datagram> split_update(const Datagram& update, WireFormat format);
+
+/// Decodes one datagram of either format (JSON if it starts with '{'). Throws ips::InputError
+/// saying what is wrong for anything malformed: short, bad magic/version, inconsistent
+/// length, non-finite numbers, missing or mistyped JSON fields.
+Datagram decode_datagram(std::span<const std::uint8_t> bytes);
+
+}  // namespace ips

@@ -1,0 +1,252 @@
+/* The ipsd position stream, binary form: the byte layout of one UDP datagram.
+ *
+ * Plain C99, no dependencies beyond <stdint.h>/<string.h>, so robot firmware can include it
+ * as is. Every multi-byte field is LITTLE-ENDIAN, whatever the host; the read helpers below
+ * assemble values byte by byte, so they are correct on big-endian hosts and need no alignment.
+ * Never memcpy a host struct onto the wire.
+ *
+ * A datagram = one header (IPS_WIRE_HEADER_SIZE bytes) + marker_count records of
+ * record_size bytes each. A receiver must use record_size from the header (not a constant)
+ * to step through the records: later protocol minor revisions may append fields to a record,
+ * and an old receiver then skips them.
+ *
+ * Header, 48 bytes:
+ *   off size type  field
+ *     0    4 u8[4] magic: the ASCII bytes 'I' 'P' 'S' 'D'
+ *     4    2 u16   version: protocol version, currently 1
+ *     6    2 u16   flags: bit 0 = records carry velocity (IPS_WIRE_FLAG_VELOCITY); other bits 0
+ *     8    4 u32   sequence: datagram counter of this output, +1 per datagram (wraps at 2^32);
+ *                  a gap means a lost datagram
+ *    12    2 u16   marker_count: records in this datagram
+ *    14    2 u16   record_size: bytes per record (36, or 48 with velocity)
+ *    16    1 u8    part: index of this datagram within its update, 0-based
+ *    17    1 u8    parts: datagrams the update was split into (>= 1)
+ *    18    2 u16   reserved, 0
+ *    20    4 u32   update: fused-update counter (the same for every part and every output)
+ *    24    8 i64   capture_realtime_ns: capture time of the newest frame in the update, CLOCK_REALTIME
+ *    32    8 i64   capture_monotonic_ns: the same instant on the daemon host's CLOCK_MONOTONIC
+ *    40    8 i64   publish_realtime_ns: when the daemon encoded the datagram, CLOCK_REALTIME
+ *
+ * Marker record, 36 bytes (48 with velocity):
+ *   off size type  field
+ *     0    4 u32   id: ArUco marker id
+ *     4    4 u32   camera_mask: bit i set = camera i of the daemon's configuration contributed
+ *     8    4 f32   x, metres, world frame
+ *    12    4 f32   y, metres
+ *    16    4 f32   z, metres
+ *    20    4 f32   yaw, radians in (-pi, pi], heading of the marker's x-axis in the world x-y plane
+ *    24    4 f32   quality: sum of the contributing observations' marker areas in the image, px^2
+ *                  (larger = closer / better resolved; 0 = none)
+ *    28    4 f32   spread, metres: largest distance of a contributing camera's estimate from the
+ *                  fused position (0 for a single camera); a disagreement figure
+ *    32    4 i32   dt_us: this marker's capture time minus the header's capture time, microseconds
+ *                  (<= 0; the weighted mean of the contributing frames' times)
+ *   with IPS_WIRE_FLAG_VELOCITY:
+ *    36    4 f32   vx, m/s (constant-velocity Kalman filter)
+ *    40    4 f32   vy, m/s
+ *    44    4 f32   vz, m/s
+ */
+#ifndef IPS_WIRE_H
+#define IPS_WIRE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define IPS_WIRE_MAGIC_0 'I'
+#define IPS_WIRE_MAGIC_1 'P'
+#define IPS_WIRE_MAGIC_2 'S'
+#define IPS_WIRE_MAGIC_3 'D'
+#define IPS_WIRE_VERSION 1u
+#define IPS_WIRE_FLAG_VELOCITY 0x0001u
+#define IPS_WIRE_HEADER_SIZE 48u
+#define IPS_WIRE_RECORD_SIZE 36u          /* without velocity */
+#define IPS_WIRE_RECORD_SIZE_VELOCITY 48u /* with velocity */
+/* Every datagram (binary or JSON) is at most this many bytes, below common path MTUs. */
+#define IPS_WIRE_MAX_DATAGRAM 1199u
+
+/* Header field offsets. */
+#define IPS_WIRE_OFF_MAGIC 0u
+#define IPS_WIRE_OFF_VERSION 4u
+#define IPS_WIRE_OFF_FLAGS 6u
+#define IPS_WIRE_OFF_SEQUENCE 8u
+#define IPS_WIRE_OFF_MARKER_COUNT 12u
+#define IPS_WIRE_OFF_RECORD_SIZE 14u
+#define IPS_WIRE_OFF_PART 16u
+#define IPS_WIRE_OFF_PARTS 17u
+#define IPS_WIRE_OFF_RESERVED 18u
+#define IPS_WIRE_OFF_UPDATE 20u
+#define IPS_WIRE_OFF_CAPTURE_REALTIME 24u
+#define IPS_WIRE_OFF_CAPTURE_MONOTONIC 32u
+#define IPS_WIRE_OFF_PUBLISH_REALTIME 40u
+
+/* Record field offsets. */
+#define IPS_WIRE_REC_ID 0u
+#define IPS_WIRE_REC_CAMERA_MASK 4u
+#define IPS_WIRE_REC_X 8u
+#define IPS_WIRE_REC_Y 12u
+#define IPS_WIRE_REC_Z 16u
+#define IPS_WIRE_REC_YAW 20u
+#define IPS_WIRE_REC_QUALITY 24u
+#define IPS_WIRE_REC_SPREAD 28u
+#define IPS_WIRE_REC_DT_US 32u
+#define IPS_WIRE_REC_VX 36u
+#define IPS_WIRE_REC_VY 40u
+#define IPS_WIRE_REC_VZ 44u
+
+/* ---- little-endian readers (byte-wise: any host byte order, any alignment) ---- */
+static inline uint16_t ips_wire_get_u16(const uint8_t* p) {
+  return (uint16_t)((uint16_t)p[0] | (uint16_t)((uint16_t)p[1] << 8));
+}
+static inline uint32_t ips_wire_get_u32(const uint8_t* p) {
+  return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+static inline uint64_t ips_wire_get_u64(const uint8_t* p) {
+  return (uint64_t)ips_wire_get_u32(p) | ((uint64_t)ips_wire_get_u32(p + 4) << 32);
+}
+static inline int32_t ips_wire_get_i32(const uint8_t* p) {
+  uint32_t u = ips_wire_get_u32(p);
+  int32_t v;
+  memcpy(&v, &u, sizeof v); /* two's complement reinterpretation, no UB */
+  return v;
+}
+static inline int64_t ips_wire_get_i64(const uint8_t* p) {
+  uint64_t u = ips_wire_get_u64(p);
+  int64_t v;
+  memcpy(&v, &u, sizeof v);
+  return v;
+}
+/* IEEE-754 binary32 (the host's float must be IEEE-754, true on every current MCU/CPU). */
+static inline float ips_wire_get_f32(const uint8_t* p) {
+  uint32_t u = ips_wire_get_u32(p);
+  float f;
+  memcpy(&f, &u, sizeof f);
+  return f;
+}
+
+/* ---- little-endian writers ---- */
+static inline void ips_wire_put_u16(uint8_t* p, uint16_t v) {
+  p[0] = (uint8_t)(v & 0xffu);
+  p[1] = (uint8_t)(v >> 8);
+}
+static inline void ips_wire_put_u32(uint8_t* p, uint32_t v) {
+  p[0] = (uint8_t)(v & 0xffu);
+  p[1] = (uint8_t)((v >> 8) & 0xffu);
+  p[2] = (uint8_t)((v >> 16) & 0xffu);
+  p[3] = (uint8_t)(v >> 24);
+}
+static inline void ips_wire_put_u64(uint8_t* p, uint64_t v) {
+  ips_wire_put_u32(p, (uint32_t)(v & 0xffffffffu));
+  ips_wire_put_u32(p + 4, (uint32_t)(v >> 32));
+}
+static inline void ips_wire_put_i32(uint8_t* p, int32_t v) {
+  uint32_t u;
+  memcpy(&u, &v, sizeof u);
+  ips_wire_put_u32(p, u);
+}
+static inline void ips_wire_put_i64(uint8_t* p, int64_t v) {
+  uint64_t u;
+  memcpy(&u, &v, sizeof u);
+  ips_wire_put_u64(p, u);
+}
+static inline void ips_wire_put_f32(uint8_t* p, float f) {
+  uint32_t u;
+  memcpy(&u, &f, sizeof u);
+  ips_wire_put_u32(p, u);
+}
+
+/* ---- decoded forms, for firmware that wants structs ---- */
+struct ips_wire_header {
+  uint16_t version;
+  uint16_t flags;
+  uint32_t sequence;
+  uint16_t marker_count;
+  uint16_t record_size;
+  uint8_t part;
+  uint8_t parts;
+  uint32_t update;
+  int64_t capture_realtime_ns;
+  int64_t capture_monotonic_ns;
+  int64_t publish_realtime_ns;
+};
+
+struct ips_wire_marker {
+  uint32_t id;
+  uint32_t camera_mask;
+  float x, y, z, yaw;
+  float quality;
+  float spread;
+  int32_t dt_us;
+  float vx, vy, vz; /* 0 unless the header has IPS_WIRE_FLAG_VELOCITY */
+};
+
+enum ips_wire_status {
+  IPS_WIRE_OK = 0,
+  IPS_WIRE_TOO_SHORT = -1,      /* shorter than a header */
+  IPS_WIRE_BAD_MAGIC = -2,      /* not an ipsd binary datagram */
+  IPS_WIRE_BAD_VERSION = -3,    /* a protocol version this header does not describe */
+  IPS_WIRE_BAD_RECORD_SIZE = -4,/* record_size smaller than the fields the flags announce */
+  IPS_WIRE_BAD_LENGTH = -5,     /* length != header + marker_count * record_size */
+  IPS_WIRE_BAD_PARTS = -6       /* parts == 0 or part >= parts */
+};
+
+/* Validates a whole datagram and decodes its header. Returns IPS_WIRE_OK or a negative
+ * ips_wire_status. After IPS_WIRE_OK, records 0..marker_count-1 can be read with
+ * ips_wire_read_marker(). */
+static inline int ips_wire_read_header(const uint8_t* buf, size_t len, struct ips_wire_header* h) {
+  uint16_t min_record;
+  if (len < IPS_WIRE_HEADER_SIZE) return IPS_WIRE_TOO_SHORT;
+  if (buf[0] != (uint8_t)IPS_WIRE_MAGIC_0 || buf[1] != (uint8_t)IPS_WIRE_MAGIC_1 ||
+      buf[2] != (uint8_t)IPS_WIRE_MAGIC_2 || buf[3] != (uint8_t)IPS_WIRE_MAGIC_3)
+    return IPS_WIRE_BAD_MAGIC;
+  h->version = ips_wire_get_u16(buf + IPS_WIRE_OFF_VERSION);
+  if (h->version != IPS_WIRE_VERSION) return IPS_WIRE_BAD_VERSION;
+  h->flags = ips_wire_get_u16(buf + IPS_WIRE_OFF_FLAGS);
+  h->sequence = ips_wire_get_u32(buf + IPS_WIRE_OFF_SEQUENCE);
+  h->marker_count = ips_wire_get_u16(buf + IPS_WIRE_OFF_MARKER_COUNT);
+  h->record_size = ips_wire_get_u16(buf + IPS_WIRE_OFF_RECORD_SIZE);
+  h->part = buf[IPS_WIRE_OFF_PART];
+  h->parts = buf[IPS_WIRE_OFF_PARTS];
+  h->update = ips_wire_get_u32(buf + IPS_WIRE_OFF_UPDATE);
+  h->capture_realtime_ns = ips_wire_get_i64(buf + IPS_WIRE_OFF_CAPTURE_REALTIME);
+  h->capture_monotonic_ns = ips_wire_get_i64(buf + IPS_WIRE_OFF_CAPTURE_MONOTONIC);
+  h->publish_realtime_ns = ips_wire_get_i64(buf + IPS_WIRE_OFF_PUBLISH_REALTIME);
+  min_record = (h->flags & IPS_WIRE_FLAG_VELOCITY) ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE;
+  if (h->record_size < min_record) return IPS_WIRE_BAD_RECORD_SIZE;
+  if ((uint64_t)len != (uint64_t)IPS_WIRE_HEADER_SIZE + (uint64_t)h->marker_count * h->record_size)
+    return IPS_WIRE_BAD_LENGTH;
+  if (h->parts == 0 || h->part >= h->parts) return IPS_WIRE_BAD_PARTS;
+  return IPS_WIRE_OK;
+}
+
+/* Decodes record `index` (< h->marker_count) of a datagram validated by ips_wire_read_header. */
+static inline void ips_wire_read_marker(const uint8_t* buf, const struct ips_wire_header* h,
+                                        uint16_t index, struct ips_wire_marker* m) {
+  const uint8_t* r = buf + IPS_WIRE_HEADER_SIZE + (size_t)index * h->record_size;
+  m->id = ips_wire_get_u32(r + IPS_WIRE_REC_ID);
+  m->camera_mask = ips_wire_get_u32(r + IPS_WIRE_REC_CAMERA_MASK);
+  m->x = ips_wire_get_f32(r + IPS_WIRE_REC_X);
+  m->y = ips_wire_get_f32(r + IPS_WIRE_REC_Y);
+  m->z = ips_wire_get_f32(r + IPS_WIRE_REC_Z);
+  m->yaw = ips_wire_get_f32(r + IPS_WIRE_REC_YAW);
+  m->quality = ips_wire_get_f32(r + IPS_WIRE_REC_QUALITY);
+  m->spread = ips_wire_get_f32(r + IPS_WIRE_REC_SPREAD);
+  m->dt_us = ips_wire_get_i32(r + IPS_WIRE_REC_DT_US);
+  if (h->flags & IPS_WIRE_FLAG_VELOCITY) {
+    m->vx = ips_wire_get_f32(r + IPS_WIRE_REC_VX);
+    m->vy = ips_wire_get_f32(r + IPS_WIRE_REC_VY);
+    m->vz = ips_wire_get_f32(r + IPS_WIRE_REC_VZ);
+  } else {
+    m->vx = m->vy = m->vz = 0.0f;
+  }
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* IPS_WIRE_H */

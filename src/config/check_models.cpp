@@ -1,0 +1,30 @@
+// Cross-check of the configuration against the loaded model file (kept apart from the parser
+// so that parsing does not depend on the mapping stage).
+#include <cmath>
+
+#include "ips/config.h"
+#include "ips/error.h"
+#include "ips/model_file.h"
+
+namespace ips {
+
+void check_models(const DaemonConfig& config, const ModelSet& models) {
+  const std::string file = config.file.string();
+  bool any_height = !std::isnan(config.markers.height);
+  for (const auto& [id, info] : config.markers.ids) any_height = any_height || !std::isnan(info.height);
+  for (const auto& cam : config.cameras) {
+    const std::string key = file + ": cameras[" + std::to_string(cam.index) + "].model";
+    const Mapper* mapper = models.find(cam.model);
+    if (!mapper) {
+      std::string known;
+      for (const auto& [name, entry] : models.cameras) known += (known.empty() ? "" : ", ") + name;
+      throw InputError(key + ": model file " + config.model_file.string() + " has no camera '" + cam.model +
+                       "' (it has: " + (known.empty() ? "none" : known) + ")");
+    }
+    if (mapper->needs_height() && !any_height)
+      throw InputError(file + ": markers.height: camera '" + cam.name + "' uses the '" + mapper->method() +
+                       "' mapper, which needs a known marker height; set markers.height or markers.ids.<id>.height");
+  }
+}
+
+}  // namespace ips

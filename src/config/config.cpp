@@ -1,0 +1,366 @@
+#include "ips/config.h"
+
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "ips/error.h"
+#include "ips/fusion.h"
+
+namespace ips {
+
+const char* to_string(SourceKind kind) {
+  switch (kind) {
+    case SourceKind::kV4l2: return "v4l2";
+    case SourceKind::kFile: return "file";
+    case SourceKind::kSynthetic: return "synthetic";
+  }
+  return "?";
+}
+
+const char* to_string(CaptureFormat format) { return format == CaptureFormat::kMjpeg ? "MJPEG" : "YUYV"; }
+
+MarkerSizes MarkerConfig::sizes() const {
+  MarkerSizes s;
+  s.default_length = edge_length;
+  for (const auto& [id, info] : ids)
+    if (!std::isnan(info.edge_length)) s.by_id[id] = info.edge_length;
+  return s;
+}
+
+double MarkerConfig::height_of(int id) const {
+  auto it = ids.find(id);
+  if (it != ids.end() && !std::isnan(it->second.height)) return it->second.height;
+  return height;
+}
+
+std::string OutputConfig::describe() const {
+  const char* kinds[] = {"unicast", "broadcast", "multicast"};
+  return std::string(kinds[static_cast<int>(kind)]) + " " + address + ":" + std::to_string(port) + " (" +
+         to_string(format) + ")";
+}
+
+namespace {
+
+/// Reads one YAML mapping strictly: every key must be consumed, or finish() names the first
+/// unknown one. Errors carry "file:line:column: key.path: what".
+class MapReader {
+ public:
+  MapReader(const YAML::Node& node, std::string key_path, const std::string& file)
+      : node_(node), path_(std::move(key_path)), file_(file) {
+    if (!node_.IsMap()) fail(node_, path_.empty() ? "the document" : path_, "expected a mapping");
+    // yaml-cpp keeps duplicate keys silently; a repeated key is almost always a paste error.
+    std::set<std::string> keys;
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.as<std::string>();
+      if (!keys.insert(k).second) fail(kv.first, key(k), "duplicate key");
+    }
+  }
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& key, const std::string& what) const {
+    std::ostringstream s;
+    s << file_;
+    const YAML::Mark mark = at.Mark();
+    if (mark.line >= 0) s << ':' << mark.line + 1 << ':' << mark.column + 1;
+    s << ": " << key << ": " << what;
+    throw InputError(s.str());
+  }
+
+  std::string key(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
+  bool has(const std::string& k) const { return static_cast<bool>(node_[k]); }
+
+  YAML::Node node(const std::string& k) {
+    seen_.insert(k);
+    return node_[k];
+  }
+
+  template <typename T>
+  void get(const std::string& k, T& value, bool required = false) {
+    seen_.insert(k);
+    const YAML::Node n = node_[k];
+    if (!n) {
+      if (required) fail(node_, key(k), "required key is missing");
+      return;
+    }
+    if (!n.IsScalar()) fail(n, key(k), std::string("expected ") + type_name<T>());
+    try {
+      value = n.as<T>();
+    } catch (const YAML::Exception&) {
+      fail(n, key(k), std::string("expected ") + type_name<T>() + ", got '" + n.Scalar() + "'");
+    }
+    if constexpr (std::is_floating_point_v<T>) {
+      if (!std::isfinite(value)) fail(n, key(k), "not a finite number");
+    }
+  }
+
+  /// A number with a lower bound (strict or inclusive).
+  void get_number(const std::string& k, double& value, double min, bool strict, bool required = false) {
+    get(k, value, required);
+    if (has(k) && (strict ? !(value > min) : !(value >= min)))
+      fail(node_[k], key(k), "must be " + std::string(strict ? "> " : ">= ") + number(min));
+  }
+
+  void get_path(const std::string& k, std::filesystem::path& value, const std::filesystem::path& base,
+                bool required) {
+    std::string s;
+    get(k, s, required);
+    if (!has(k)) return;
+    if (s.empty()) fail(node_[k], key(k), "empty path");
+    std::filesystem::path p(s);
+    value = p.is_absolute() ? p : base / p;
+    std::error_code ec;
+    if (!std::filesystem::exists(value, ec)) fail(node_[k], key(k), "no such file: " + value.string());
+  }
+
+  void finish() const {
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.as<std::string>();
+      if (!seen_.count(k)) fail(kv.first, key(k), "unknown key");
+    }
+  }
+
+  const YAML::Node& raw() const { return node_; }
+
+ private:
+  template <typename T>
+  static const char* type_name() {
+    if constexpr (std::is_same_v<T, bool>) return "true or false";
+    if constexpr (std::is_integral_v<T>) return "an integer";
+    if constexpr (std::is_floating_point_v<T>) return "a number";
+    return "a string";
+  }
+  static std::string number(double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+  }
+
+  YAML::Node node_;
+  std::string path_;
+  const std::string& file_;
+  std::set<std::string> seen_;
+};
+
+template <typename Enum>
+Enum pick(MapReader& r, const std::string& k, const std::vector<std::pair<std::string, Enum>>& choices,
+          Enum value, bool required) {
+  std::string s;
+  r.get(k, s, required);
+  if (!r.has(k)) return value;
+  std::string names;
+  for (const auto& [name, e] : choices) {
+    if (name == s) return e;
+    names += (names.empty() ? "" : "|") + name;
+  }
+  r.fail(r.raw()[k], r.key(k), "unknown value '" + s + "' (" + names + ")");
+}
+
+CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem::path& base, const std::string& file) {
+  MapReader r(n, "cameras[" + std::to_string(index) + "]", file);
+  CameraConfig c;
+  c.index = index;
+  r.get("name", c.name, true);
+  if (c.name.empty()) r.fail(n["name"], r.key("name"), "empty name");
+  c.model = c.name;
+  r.get("model", c.model);
+  c.source = pick<SourceKind>(r, "source",
+                              {{"v4l2", SourceKind::kV4l2}, {"file", SourceKind::kFile}, {"synthetic", SourceKind::kSynthetic}},
+                              c.source, true);
+  r.get("device", c.device, c.source == SourceKind::kV4l2);
+  r.get("width", c.width);
+  r.get("height", c.height);
+  if (c.width <= 0 || c.height <= 0) r.fail(n, r.key("width/height"), "must be positive");
+  c.pixel_format = pick<CaptureFormat>(r, "pixel_format", {{"MJPEG", CaptureFormat::kMjpeg}, {"YUYV", CaptureFormat::kYuyv}},
+                                       c.pixel_format, false);
+  r.get("buffer_count", c.buffer_count);
+  if (c.buffer_count < 4) r.fail(n["buffer_count"], r.key("buffer_count"), "must be >= 4");
+  if (r.has("controls")) {
+    MapReader k(r.node("controls"), r.key("controls"), file);
+    auto opt = [&k](const std::string& key, auto& field) {
+      using T = typename std::remove_reference_t<decltype(field)>::value_type;
+      if (!k.has(key)) return;
+      T v{};
+      k.get(key, v);
+      field = v;
+    };
+    opt("auto_exposure", c.auto_exposure);
+    opt("exposure", c.exposure_s);
+    // Seconds, not the V4L2 100-us units: a value like 150 is almost surely a unit mistake.
+    if (c.exposure_s && !(*c.exposure_s > 0 && *c.exposure_s <= 1.0))
+      k.fail(k.raw()["exposure"], k.key("exposure"), "must be in (0, 1] seconds");
+    opt("gain", c.gain);
+    opt("autofocus", c.autofocus);
+    opt("power_line_hz", c.power_line_hz);
+    if (c.power_line_hz && *c.power_line_hz != 0 && *c.power_line_hz != 50 && *c.power_line_hz != 60)
+      k.fail(k.raw()["power_line_hz"], k.key("power_line_hz"), "must be 50, 60 or 0");
+    k.finish();
+  }
+  r.get_path("path", c.path, base, c.source == SourceKind::kFile);
+  r.get("loop", c.loop);
+  r.get_path("scene", c.scene, base, c.source == SourceKind::kSynthetic);
+  c.scene_camera = c.name;
+  r.get("scene_camera", c.scene_camera);
+  r.get_number("fps", c.fps, 0.0, true);
+  r.get_path("intrinsics", c.intrinsics, base, c.source != SourceKind::kSynthetic);
+  r.get("required", c.required);
+  r.finish();
+  return c;
+}
+
+MarkerConfig parse_markers(const YAML::Node& n, const std::string& file) {
+  MapReader r(n, "markers", file);
+  MarkerConfig m;
+  r.get("dictionary", m.dictionary);
+  r.get_number("edge_length", m.edge_length, 0.0, true);
+  if (r.has("height")) r.get("height", m.height);
+  if (r.has("ids")) {
+    const YAML::Node ids = r.node("ids");
+    if (!ids.IsMap()) r.fail(ids, "markers.ids", "expected a mapping of marker id -> settings");
+    for (const auto& kv : ids) {
+      int id = -1;
+      const std::string id_text = kv.first.as<std::string>();
+      try {
+        id = kv.first.as<int>();
+      } catch (const YAML::Exception&) {
+        r.fail(kv.first, "markers.ids." + id_text, "marker id must be a non-negative integer");
+      }
+      if (id < 0) r.fail(kv.first, "markers.ids." + id_text, "marker id must be a non-negative integer");
+      MapReader e(kv.second, "markers.ids." + id_text, file);
+      MarkerInfo info;
+      e.get("name", info.name);
+      if (e.has("edge_length")) e.get_number("edge_length", info.edge_length, 0.0, true);
+      if (e.has("height")) e.get("height", info.height);
+      e.finish();
+      m.ids[id] = info;
+    }
+  }
+  r.finish();
+  return m;
+}
+
+OutputConfig parse_output(const YAML::Node& n, int index, const std::string& file) {
+  MapReader r(n, "outputs[" + std::to_string(index) + "]", file);
+  OutputConfig o;
+  o.kind = pick<OutputConfig::Kind>(r, "type",
+                                    {{"unicast", OutputConfig::Kind::kUnicast},
+                                     {"broadcast", OutputConfig::Kind::kBroadcast},
+                                     {"multicast", OutputConfig::Kind::kMulticast}},
+                                    o.kind, true);
+  r.get("address", o.address, true);
+  int port = 0;
+  r.get("port", port, true);
+  if (port < 1 || port > 65535) r.fail(n["port"], r.key("port"), "must be 1..65535");
+  o.port = static_cast<std::uint16_t>(port);
+  std::string format = "binary";
+  r.get("format", format);
+  try {
+    o.format = parse_wire_format(format, r.key("format"));
+  } catch (const InputError&) {
+    r.fail(n["format"], r.key("format"), std::string("unknown value '") + format + "' (binary|json)");
+  }
+  r.get("ttl", o.ttl);
+  if (o.ttl < 0 || o.ttl > 255) r.fail(n["ttl"], r.key("ttl"), "must be 0..255");
+  r.get("interface", o.interface);
+  r.finish();
+  return o;
+}
+
+}  // namespace
+
+DaemonConfig parse_config(const std::string& text, const std::filesystem::path& path) {
+  const std::string file = path.string();
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                     ": not valid YAML: " + e.msg);
+  }
+  if (!root || root.IsNull()) throw InputError(file + ": empty configuration");
+  const std::filesystem::path base = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
+
+  MapReader r(root, "", file);
+  DaemonConfig c;
+  c.file = path;
+
+  const YAML::Node cameras = r.node("cameras");
+  if (!cameras || !cameras.IsSequence() || cameras.size() == 0)
+    r.fail(cameras ? cameras : root, "cameras", "required: a non-empty list of cameras");
+  if (cameras.size() > 32) r.fail(cameras, "cameras", "at most 32 cameras (the stream's camera mask is 32 bits)");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    c.cameras.push_back(parse_camera(cameras[i], static_cast<int>(i), base, file));
+    if (!names.insert(c.cameras.back().name).second)
+      r.fail(cameras[i]["name"], "cameras[" + std::to_string(i) + "].name", "duplicate camera name '" + c.cameras.back().name + "'");
+  }
+
+  if (r.has("markers")) c.markers = parse_markers(r.node("markers"), file);
+  r.get_path("model_file", c.model_file, base, true);
+
+  if (r.has("fusion")) {
+    MapReader f(r.node("fusion"), "fusion", file);
+    f.get("method", c.fusion.method);
+    try {
+      (void)find_fusion_method(c.fusion.method, "fusion.method");
+    } catch (const InputError&) {
+      std::string known;
+      for (const auto& m : fusion_methods()) known += (known.empty() ? "" : "|") + m.name;
+      f.fail(f.raw()["method"], "fusion.method", "unknown method '" + c.fusion.method + "' (" + known + ")");
+    }
+    f.get_number("window", c.fusion.window_s, 0.0, false);
+    f.get_number("max_wait", c.fusion.max_wait_s, 0.0, true);
+    if (f.has("kalman")) {
+      MapReader k(f.node("kalman"), "fusion.kalman", file);
+      k.get("enabled", c.fusion.kalman);
+      k.get_number("process_noise", c.fusion.kalman_options.process_noise, 0.0, true);
+      k.get_number("measurement_noise", c.fusion.kalman_options.measurement_noise, 0.0, true);
+      k.get_number("reset_after", c.fusion.kalman_options.reset_after_s, 0.0, true);
+      k.get_number("initial_velocity_std", c.fusion.kalman_options.initial_velocity_std, 0.0, true);
+      k.finish();
+    }
+    f.finish();
+  }
+
+  if (r.has("outputs")) {
+    const YAML::Node outputs = r.node("outputs");
+    if (!outputs.IsSequence()) r.fail(outputs, "outputs", "expected a list of outputs");
+    for (std::size_t i = 0; i < outputs.size(); ++i) c.outputs.push_back(parse_output(outputs[i], static_cast<int>(i), file));
+  }
+
+  if (r.has("logging")) {
+    MapReader l(r.node("logging"), "logging", file);
+    l.get("level", c.log_level);
+    static const std::set<std::string> levels = {"trace", "debug", "info", "warn", "error"};
+    if (!levels.count(c.log_level))
+      l.fail(l.raw()["level"], "logging.level", "unknown value '" + c.log_level + "' (trace|debug|info|warn|error)");
+    l.finish();
+  }
+
+  if (r.has("status")) {
+    MapReader s(r.node("status"), "status", file);
+    s.get_number("interval", c.status.interval_s, 0.0, false);
+    s.get("socket", c.status.socket);
+    s.finish();
+  }
+
+  if (r.has("watchdog")) {
+    MapReader w(r.node("watchdog"), "watchdog", file);
+    w.get_number("stall_timeout", c.stall_timeout_s, 0.0, true);
+    w.finish();
+  }
+  r.finish();
+  return c;
+}
+
+DaemonConfig load_config(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path.string() + ": cannot read the configuration file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_config(text.str(), path);
+}
+
+}  // namespace ips

@@ -1,0 +1,131 @@
+#include "camera_worker.h"
+
+#include <pthread.h>
+
+#include <cmath>
+
+#include <spdlog/spdlog.h>
+
+#include "ips/clock.h"
+#include "ips/detector.h"
+#include "ips/marker_geometry.h"
+
+namespace ipsd {
+
+namespace {
+// How long one read may block: bounds the time to notice a stop request (SIGTERM -> exit
+// within 2 s) and the heartbeat period of a camera that delivers nothing.
+constexpr std::chrono::milliseconds kReadTimeout{100};
+// At most this many queued frames are skipped per iteration to reach the newest one
+// (a source that is always ready, such as an unpaced file, must not starve the detector).
+constexpr int kMaxSkip = 8;
+}  // namespace
+
+CameraWorker::CameraWorker(const ips::CameraConfig& config, ips::SourceFactory factory, RuntimeHolder& runtime,
+                           ObservationQueue& queue, CameraStats& stats)
+    : config_(config), supervisor_(config.name, std::move(factory)), runtime_(runtime), queue_(queue), stats_(stats) {}
+
+CameraWorker::~CameraWorker() {
+  request_stop();
+  join();
+}
+
+bool CameraWorker::open_first() {
+  const bool ok = supervisor_.open();
+  stats_.state = static_cast<int>(ok ? CameraState::kOpen : CameraState::kDown);
+  stats_.failures = supervisor_.failures();
+  std::lock_guard lock(stats_.error_mutex);
+  stats_.last_error = supervisor_.last_error();
+  stats_.source = supervisor_.describe();
+  return ok;
+}
+
+void CameraWorker::start() {
+  stats_.heartbeat_ns = ips::monotonic_ns();
+  thread_ = std::thread([this] { run(); });
+}
+
+void CameraWorker::join() {
+  if (thread_.joinable()) thread_.join();
+}
+
+void CameraWorker::run() {
+  const std::string thread_name = ("cam:" + config_.name).substr(0, 15);  // visible in top -H
+  pthread_setname_np(pthread_self(), thread_name.c_str());
+  std::uint64_t last_sequence = 0;
+  bool have_sequence = false;
+  std::uint64_t reported_failures = supervisor_.failures();
+  ips::Frame frame, newer;
+  while (!stop_) {
+    stats_.heartbeat_ns = ips::monotonic_ns();
+    auto status = supervisor_.read(frame, kReadTimeout);
+    if (supervisor_.failures() != reported_failures) {
+      reported_failures = supervisor_.failures();
+      stats_.failures = reported_failures;
+      have_sequence = false;  // a reopened source restarts its counter
+      std::lock_guard lock(stats_.error_mutex);
+      stats_.last_error = supervisor_.last_error();
+    }
+    stats_.state = static_cast<int>(supervisor_.state() == ips::SourceSupervisor::State::kOpen ? CameraState::kOpen
+                                                                                                : CameraState::kDown);
+    if (status == ips::FrameSource::ReadStatus::kCorrupt) {
+      ++stats_.corrupt;
+      continue;
+    }
+    if (status != ips::FrameSource::ReadStatus::kFrame) continue;
+    // Newest frame only: take whatever else is already waiting, counting what is skipped.
+    for (int i = 0; i < kMaxSkip; ++i) {
+      const auto more = supervisor_.read(newer, std::chrono::milliseconds(0));
+      if (more == ips::FrameSource::ReadStatus::kCorrupt) {
+        ++stats_.corrupt;
+        continue;
+      }
+      if (more != ips::FrameSource::ReadStatus::kFrame) break;
+      std::swap(frame, newer);
+    }
+    if (have_sequence && frame.sequence > last_sequence + 1) stats_.drops += frame.sequence - last_sequence - 1;
+    have_sequence = true;
+    last_sequence = frame.sequence;
+    process(frame);
+  }
+  stats_.state = static_cast<int>(CameraState::kDown);
+}
+
+void CameraWorker::process(ips::Frame& frame) {
+  const std::shared_ptr<const Runtime> rt = runtime_.get();
+  const int index = config_.index;
+  if (!detector_ || dictionary_ != rt->config.markers.dictionary) {  // first frame, or a reload changed it
+    ips::DetectorOptions options;
+    options.dictionary = rt->config.markers.dictionary;
+    detector_ = std::make_unique<ips::Detector>(options);
+    dictionary_ = options.dictionary;
+  }
+  const ips::CameraModel& intrinsics = rt->intrinsics[static_cast<std::size_t>(index)];
+  const std::int64_t t0 = ips::monotonic_ns();
+  const auto detections = detector_->detect(frame.gray, &intrinsics);
+  ips::FrameObservations batch;
+  batch.camera_index = index;
+  batch.t_mono_ns = frame.t_mono_ns;
+  batch.t_real_ns = frame.t_real_ns;
+  const ips::Mapper& mapper = *rt->mappers[static_cast<std::size_t>(index)];
+  for (const auto& d : detections) {
+    const double height = rt->config.markers.height_of(d.id);
+    if (mapper.needs_height() && std::isnan(height)) {
+      if (stats_.no_height++ == 0)
+        spdlog::warn("{}: marker {} has no known height and the '{}' mapper needs one (markers.ids.{}.height); "
+                     "such markers are dropped and counted",
+                     config_.name, d.id, mapper.method(), d.id);
+      continue;
+    }
+    const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt->sizes.length_of(d.id));
+    ips::WorldObservation w = ips::to_world(cam, mapper, height, index, frame.t_mono_ns, frame.t_real_ns);
+    if (!w.p_world.allFinite() || !std::isfinite(w.yaw)) continue;  // degenerate corners
+    batch.observations.push_back(w);
+  }
+  stats_.detect_ns += static_cast<std::uint64_t>(ips::monotonic_ns() - t0);
+  stats_.markers += batch.observations.size();
+  ++stats_.frames;
+  queue_.push(std::move(batch));
+}
+
+}  // namespace ipsd

@@ -1,0 +1,44 @@
+// One thread per camera: capture -> detect -> camera coordinates -> that camera's mapper,
+// always on the newest frame; results go to the fusion thread's queue.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <thread>
+
+#include "ips/detector.h"
+#include "ips/source_supervisor.h"
+#include "pipeline.h"
+
+namespace ipsd {
+
+class CameraWorker {
+ public:
+  CameraWorker(const ips::CameraConfig& config, ips::SourceFactory factory, RuntimeHolder& runtime,
+               ObservationQueue& queue, CameraStats& stats);
+  ~CameraWorker();
+
+  /// First open attempt, before the thread starts (start-up checks `required`).
+  bool open_first();
+  const ips::SourceSupervisor& supervisor() const { return supervisor_; }
+
+  void start();
+  void request_stop() { stop_ = true; }
+  void join();
+
+ private:
+  void run();
+  void process(ips::Frame& frame);
+
+  ips::CameraConfig config_;
+  ips::SourceSupervisor supervisor_;
+  RuntimeHolder& runtime_;
+  ObservationQueue& queue_;
+  CameraStats& stats_;
+  std::unique_ptr<ips::Detector> detector_;  // used by the camera thread only
+  std::string dictionary_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace ipsd

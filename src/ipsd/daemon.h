@@ -1,0 +1,50 @@
+// The daemon: starts the camera and fusion threads from a configuration, then runs the main
+// thread's loop (signals via signalfd, status lines, the status socket, systemd notify and
+// the watchdog fed from the threads' own heartbeats).
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "camera_worker.h"
+#include "fusion_worker.h"
+#include "pipeline.h"
+#include "status.h"
+
+namespace ipsd {
+
+class Daemon {
+ public:
+  /// Loads and checks everything; throws ips::InputError (exit 2) for a bad configuration,
+  /// model file, intrinsics or output.
+  explicit Daemon(std::filesystem::path config_path);
+  ~Daemon();
+
+  /// Opens the cameras, starts the threads, serves until SIGTERM/SIGINT. Returns the exit
+  /// status: 0 after a clean stop, 1 if a `required: true` camera cannot be opened at start.
+  int run();
+
+ private:
+  struct Pipeline;
+  bool start_pipeline(std::shared_ptr<const Runtime> runtime, bool at_start);
+  void stop_pipeline();
+  void reload();
+  void tick(std::int64_t now);
+
+  std::filesystem::path config_path_;
+  RuntimeHolder runtime_;
+  std::unique_ptr<Pipeline> pipeline_;
+  std::optional<StatusSocket> status_socket_;
+  std::int64_t started_ns_ = 0;
+  std::int64_t synthetic_epoch_ns_ = 0;
+  std::int64_t next_sample_ns_ = 0;
+  std::int64_t next_status_log_ns_ = 0;
+  std::int64_t next_watchdog_ns_ = 0;
+  std::uint64_t watchdog_usec_ = 0;
+  bool stalled_ = false;
+};
+
+}  // namespace ipsd

@@ -1,0 +1,46 @@
+// ipsd: the real-time indoor positioning daemon (cameras -> markers -> world -> UDP).
+// Exit status: 0 clean stop, 1 run-time failure (a required camera absent at start, ...),
+// 2 bad configuration / model / intrinsics (systemd: RestartPreventExitStatus=2).
+#include <cstdio>
+#include <cstdlib>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "daemon.h"
+#include "ips/config.h"
+#include "ips/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"ipsd: indoor positioning daemon (overhead cameras -> ArUco markers -> world positions over UDP)"};
+  app.set_version_flag("--version", std::string("ipsd ") + IPS_VERSION);
+  std::string config = "/etc/ipsd/ipsd.yaml";
+  bool check = false;
+  std::string log_level;
+  app.add_option("-c,--config", config, "configuration file (YAML)")->capture_default_str();
+  app.add_flag("--check", check, "load and validate the configuration, model and intrinsics, then exit (0 = good)");
+  app.add_option("--log-level", log_level, "override logging.level: trace|debug|info|warn|error");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int status = app.exit(e);
+    return status == 0 ? 0 : 2;
+  }
+  // Under systemd the journal adds time and unit; on a terminal show the time ourselves.
+  spdlog::set_pattern(std::getenv("JOURNAL_STREAM") ? "%^%l%$: %v" : "[%H:%M:%S.%e] %^%l%$: %v");
+  try {
+    ipsd::Daemon daemon(config);
+    if (!log_level.empty()) spdlog::set_level(spdlog::level::from_str(log_level));
+    if (check) {
+      std::printf("ipsd: %s is valid\n", config.c_str());
+      return 0;
+    }
+    return daemon.run();
+  } catch (const ips::InputError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,288 @@
+#include "ips/packet_codec.h"
+
+#include <cinttypes>
+#include <cmath>
+#include <limits>
+#include <cstdio>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "ips/error.h"
+#include "ips/wire.h"
+
+namespace ips {
+
+WireFormat parse_wire_format(const std::string& name, const std::string& where) {
+  if (name == "binary") return WireFormat::kBinary;
+  if (name == "json") return WireFormat::kJson;
+  throw InputError(where + ": unknown format '" + name + "' (binary|json)");
+}
+
+const char* to_string(WireFormat format) { return format == WireFormat::kBinary ? "binary" : "json"; }
+
+namespace {
+
+std::size_t record_size(bool velocity) {
+  return velocity ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE;
+}
+
+void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity) {
+  char buf[1024];
+  int n = std::snprintf(buf, sizeof buf,
+                        "{\"id\":%" PRIu32 ",\"cameras\":%" PRIu32
+                        ",\"x\":%.5f,\"y\":%.5f,\"z\":%.5f,\"yaw\":%.5f,\"quality\":%.1f,"
+                        "\"spread\":%.5f,\"dt_us\":%" PRId32,
+                        m.id, m.camera_mask, m.x, m.y, m.z, m.yaw, m.quality, m.spread, m.dt_us);
+  out.append(buf, static_cast<std::size_t>(n));
+  if (velocity) {
+    n = std::snprintf(buf, sizeof buf, ",\"vx\":%.4f,\"vy\":%.4f,\"vz\":%.4f", m.vx, m.vy, m.vz);
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  out.push_back('}');
+}
+
+[[noreturn]] void malformed(const std::string& why) { throw InputError("malformed datagram: " + why); }
+
+double finite_or_throw(double v, const char* field) {
+  if (!std::isfinite(v)) malformed(std::string("field '") + field + "' is not a finite number");
+  return v;
+}
+
+Datagram decode_binary(std::span<const std::uint8_t> bytes) {
+  ips_wire_header h{};
+  const int status = ips_wire_read_header(bytes.data(), bytes.size(), &h);
+  switch (status) {
+    case IPS_WIRE_OK: break;
+    case IPS_WIRE_TOO_SHORT: malformed(std::to_string(bytes.size()) + " bytes, shorter than a header");
+    case IPS_WIRE_BAD_MAGIC: malformed("bad magic");
+    case IPS_WIRE_BAD_VERSION: malformed("unsupported protocol version " + std::to_string(h.version));
+    case IPS_WIRE_BAD_RECORD_SIZE: malformed("record_size " + std::to_string(h.record_size) + " too small");
+    case IPS_WIRE_BAD_LENGTH:
+      malformed("length " + std::to_string(bytes.size()) + " does not match " +
+                std::to_string(h.marker_count) + " records of " + std::to_string(h.record_size) + " bytes");
+    case IPS_WIRE_BAD_PARTS: malformed("part " + std::to_string(h.part) + " of " + std::to_string(h.parts));
+    default: malformed("unknown header error");
+  }
+  Datagram d;
+  d.version = h.version;
+  d.has_velocity = (h.flags & IPS_WIRE_FLAG_VELOCITY) != 0;
+  d.sequence = h.sequence;
+  d.update = h.update;
+  d.part = h.part;
+  d.parts = h.parts;
+  d.capture_realtime_ns = h.capture_realtime_ns;
+  d.capture_monotonic_ns = h.capture_monotonic_ns;
+  d.publish_realtime_ns = h.publish_realtime_ns;
+  d.markers.reserve(h.marker_count);
+  for (std::uint16_t i = 0; i < h.marker_count; ++i) {
+    ips_wire_marker w{};
+    ips_wire_read_marker(bytes.data(), &h, i, &w);
+    MarkerRecord m;
+    m.id = w.id;
+    m.camera_mask = w.camera_mask;
+    m.x = finite_or_throw(w.x, "x");
+    m.y = finite_or_throw(w.y, "y");
+    m.z = finite_or_throw(w.z, "z");
+    m.yaw = finite_or_throw(w.yaw, "yaw");
+    m.quality = finite_or_throw(w.quality, "quality");
+    m.spread = finite_or_throw(w.spread, "spread");
+    m.dt_us = w.dt_us;
+    m.vx = finite_or_throw(w.vx, "vx");
+    m.vy = finite_or_throw(w.vy, "vy");
+    m.vz = finite_or_throw(w.vz, "vz");
+    d.markers.push_back(m);
+  }
+  return d;
+}
+
+template <typename T>
+T get_integer(const nlohmann::json& obj, const char* key) {
+  auto it = obj.find(key);
+  if (it == obj.end()) malformed(std::string("missing field '") + key + "'");
+  if (!it->is_number_integer()) malformed(std::string("field '") + key + "' is not an integer");
+  if (it->is_number_unsigned()) {
+    const auto v = it->get<std::uint64_t>();
+    if (v > static_cast<std::uint64_t>(std::numeric_limits<T>::max()))
+      malformed(std::string("field '") + key + "' out of range");
+    return static_cast<T>(v);
+  }
+  const auto v = it->get<std::int64_t>();
+  if (v < static_cast<std::int64_t>(std::numeric_limits<T>::min()) ||
+      (v > 0 && static_cast<std::uint64_t>(v) > static_cast<std::uint64_t>(std::numeric_limits<T>::max())))
+    malformed(std::string("field '") + key + "' out of range");
+  return static_cast<T>(v);
+}
+
+double get_number(const nlohmann::json& obj, const char* key) {
+  auto it = obj.find(key);
+  if (it == obj.end()) malformed(std::string("missing field '") + key + "'");
+  if (!it->is_number()) malformed(std::string("field '") + key + "' is not a number");
+  return finite_or_throw(it->get<double>(), key);
+}
+
+Datagram decode_json(std::span<const std::uint8_t> bytes) {
+  const auto* begin = reinterpret_cast<const char*>(bytes.data());
+  nlohmann::json j = nlohmann::json::parse(begin, begin + bytes.size(), nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) malformed("not valid JSON");
+  if (!j.is_object()) malformed("JSON is not an object");
+  auto type = j.find("type");
+  if (type == j.end() || !type->is_string() || type->get<std::string>() != "ips.positions")
+    malformed("JSON 'type' is not \"ips.positions\"");
+  Datagram d;
+  d.version = get_integer<std::uint16_t>(j, "version");
+  if (d.version != IPS_WIRE_VERSION) malformed("unsupported protocol version " + std::to_string(d.version));
+  auto vel = j.find("velocity");
+  if (vel == j.end() || !vel->is_boolean()) malformed("field 'velocity' missing or not a boolean");
+  d.has_velocity = vel->get<bool>();
+  d.sequence = get_integer<std::uint32_t>(j, "seq");
+  d.update = get_integer<std::uint32_t>(j, "update");
+  d.part = get_integer<std::uint8_t>(j, "part");
+  d.parts = get_integer<std::uint8_t>(j, "parts");
+  if (d.parts == 0 || d.part >= d.parts) malformed("part " + std::to_string(d.part) + " of " + std::to_string(d.parts));
+  d.capture_realtime_ns = get_integer<std::int64_t>(j, "t_capture_real_ns");
+  d.capture_monotonic_ns = get_integer<std::int64_t>(j, "t_capture_mono_ns");
+  d.publish_realtime_ns = get_integer<std::int64_t>(j, "t_publish_real_ns");
+  auto markers = j.find("markers");
+  if (markers == j.end() || !markers->is_array()) malformed("field 'markers' missing or not an array");
+  for (const auto& mj : *markers) {
+    if (!mj.is_object()) malformed("a marker is not an object");
+    MarkerRecord m;
+    m.id = get_integer<std::uint32_t>(mj, "id");
+    m.camera_mask = get_integer<std::uint32_t>(mj, "cameras");
+    m.x = get_number(mj, "x");
+    m.y = get_number(mj, "y");
+    m.z = get_number(mj, "z");
+    m.yaw = get_number(mj, "yaw");
+    m.quality = get_number(mj, "quality");
+    m.spread = get_number(mj, "spread");
+    m.dt_us = get_integer<std::int32_t>(mj, "dt_us");
+    if (d.has_velocity) {
+      m.vx = get_number(mj, "vx");
+      m.vy = get_number(mj, "vy");
+      m.vz = get_number(mj, "vz");
+    }
+    d.markers.push_back(m);
+  }
+  return d;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> encode_binary(const Datagram& d) {
+  if (d.markers.size() > 0xffff) throw std::length_error("encode_binary: more than 65535 markers");
+  const std::size_t rs = record_size(d.has_velocity);
+  std::vector<std::uint8_t> out(IPS_WIRE_HEADER_SIZE + d.markers.size() * rs, 0);
+  std::uint8_t* p = out.data();
+  if (p == nullptr) throw std::logic_error("encode_binary: allocation");  // never: size >= 48
+  p[0] = IPS_WIRE_MAGIC_0;
+  p[1] = IPS_WIRE_MAGIC_1;
+  p[2] = IPS_WIRE_MAGIC_2;
+  p[3] = IPS_WIRE_MAGIC_3;
+  ips_wire_put_u16(p + IPS_WIRE_OFF_VERSION, d.version);
+  ips_wire_put_u16(p + IPS_WIRE_OFF_FLAGS, d.has_velocity ? IPS_WIRE_FLAG_VELOCITY : 0);
+  ips_wire_put_u32(p + IPS_WIRE_OFF_SEQUENCE, d.sequence);
+  ips_wire_put_u16(p + IPS_WIRE_OFF_MARKER_COUNT, static_cast<std::uint16_t>(d.markers.size()));
+  ips_wire_put_u16(p + IPS_WIRE_OFF_RECORD_SIZE, static_cast<std::uint16_t>(rs));
+  p[IPS_WIRE_OFF_PART] = d.part;
+  p[IPS_WIRE_OFF_PARTS] = d.parts;
+  ips_wire_put_u32(p + IPS_WIRE_OFF_UPDATE, d.update);
+  ips_wire_put_i64(p + IPS_WIRE_OFF_CAPTURE_REALTIME, d.capture_realtime_ns);
+  ips_wire_put_i64(p + IPS_WIRE_OFF_CAPTURE_MONOTONIC, d.capture_monotonic_ns);
+  ips_wire_put_i64(p + IPS_WIRE_OFF_PUBLISH_REALTIME, d.publish_realtime_ns);
+  for (std::size_t i = 0; i < d.markers.size(); ++i) {
+    const MarkerRecord& m = d.markers[i];
+    std::uint8_t* r = p + IPS_WIRE_HEADER_SIZE + i * rs;
+    ips_wire_put_u32(r + IPS_WIRE_REC_ID, m.id);
+    ips_wire_put_u32(r + IPS_WIRE_REC_CAMERA_MASK, m.camera_mask);
+    ips_wire_put_f32(r + IPS_WIRE_REC_X, static_cast<float>(m.x));
+    ips_wire_put_f32(r + IPS_WIRE_REC_Y, static_cast<float>(m.y));
+    ips_wire_put_f32(r + IPS_WIRE_REC_Z, static_cast<float>(m.z));
+    ips_wire_put_f32(r + IPS_WIRE_REC_YAW, static_cast<float>(m.yaw));
+    ips_wire_put_f32(r + IPS_WIRE_REC_QUALITY, static_cast<float>(m.quality));
+    ips_wire_put_f32(r + IPS_WIRE_REC_SPREAD, static_cast<float>(m.spread));
+    ips_wire_put_i32(r + IPS_WIRE_REC_DT_US, m.dt_us);
+    if (d.has_velocity) {
+      ips_wire_put_f32(r + IPS_WIRE_REC_VX, static_cast<float>(m.vx));
+      ips_wire_put_f32(r + IPS_WIRE_REC_VY, static_cast<float>(m.vy));
+      ips_wire_put_f32(r + IPS_WIRE_REC_VZ, static_cast<float>(m.vz));
+    }
+  }
+  return out;
+}
+
+std::string encode_json(const Datagram& d) {
+  std::string out;
+  out.reserve(256 + d.markers.size() * 160);
+  char buf[384];
+  const int n = std::snprintf(
+      buf, sizeof buf,
+      "{\"type\":\"ips.positions\",\"version\":%u,\"seq\":%" PRIu32 ",\"update\":%" PRIu32
+      ",\"part\":%u,\"parts\":%u,\"t_capture_real_ns\":%" PRId64 ",\"t_capture_mono_ns\":%" PRId64
+      ",\"t_publish_real_ns\":%" PRId64 ",\"velocity\":%s,\"markers\":[",
+      static_cast<unsigned>(d.version), d.sequence, d.update, static_cast<unsigned>(d.part),
+      static_cast<unsigned>(d.parts), d.capture_realtime_ns, d.capture_monotonic_ns,
+      d.publish_realtime_ns, d.has_velocity ? "true" : "false");
+  out.append(buf, static_cast<std::size_t>(n));
+  for (std::size_t i = 0; i < d.markers.size(); ++i) {
+    if (i) out.push_back(',');
+    append_marker_json(out, d.markers[i], d.has_velocity);
+  }
+  out.append("]}\n");
+  return out;
+}
+
+std::vector<std::uint8_t> encode(const Datagram& d, WireFormat format) {
+  if (format == WireFormat::kBinary) return encode_binary(d);
+  const std::string s = encode_json(d);
+  return {s.begin(), s.end()};
+}
+
+std::vector<Datagram> split_update(const Datagram& update, WireFormat format) {
+  std::vector<Datagram> parts;
+  Datagram shell = update;
+  shell.markers.clear();
+  // Worst-case header: every counter at its widest, so the final numbers can only shrink it.
+  Datagram widest = shell;
+  widest.sequence = 0xffffffffu;
+  widest.update = 0xffffffffu;
+  widest.part = widest.parts = 255;
+  const std::size_t header_bytes =
+      format == WireFormat::kBinary ? IPS_WIRE_HEADER_SIZE : encode_json(widest).size();
+  const std::size_t budget = IPS_WIRE_MAX_DATAGRAM;
+
+  Datagram current = shell;
+  std::size_t used = header_bytes;
+  for (const MarkerRecord& m : update.markers) {
+    std::size_t bytes;
+    if (format == WireFormat::kBinary) {
+      bytes = record_size(update.has_velocity);
+    } else {
+      std::string s;
+      append_marker_json(s, m, update.has_velocity);
+      bytes = s.size() + 1;  // the separating comma
+    }
+    if (used + bytes > budget && !current.markers.empty()) {
+      parts.push_back(std::move(current));
+      current = shell;
+      used = header_bytes;
+    }
+    current.markers.push_back(m);
+    used += bytes;
+  }
+  parts.push_back(std::move(current));
+  if (parts.size() > 255) throw std::length_error("split_update: more than 255 datagrams");
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    parts[i].part = static_cast<std::uint8_t>(i);
+    parts[i].parts = static_cast<std::uint8_t>(parts.size());
+  }
+  return parts;
+}
+
+Datagram decode_datagram(std::span<const std::uint8_t> bytes) {
+  if (bytes.empty()) malformed("empty");
+  if (bytes[0] == '{') return decode_json(bytes);
+  return decode_binary(bytes);
+}
+
+}  // namespace ips

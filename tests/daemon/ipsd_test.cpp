@@ -1,0 +1,231 @@
+// The real ipsd binary on three synthetic cameras of the published layout with two moving
+// markers, received by a test client on loopback and compared with the simulator's truth.
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <regex>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "ips/clock.h"
+#include "ips/packet_codec.h"
+#include "ips/sim/scene.h"
+#include "process_util.h"
+
+namespace ips {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Frames per second of the simulated cameras. Low, so that every camera renders and
+// processes every frame even on a loaded 2-core CI machine: then all three deliver the same
+// capture instants and overlapping views get fused.
+constexpr double kFps = 4.0;
+
+class IpsdTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(fs::temp_directory_path() / ("ipsd_test_" + std::to_string(::getpid())));
+    fs::create_directories(*dir_);
+    // The published scene with its calibration paths made absolute and two moving robots.
+    std::string scene = test::read_file(fs::path(IPS_CONFIG_DIR) / "scenes/ou2023.yaml");
+    scene = std::regex_replace(scene, std::regex(R"(\.\./\.\./calib_data)"), std::string(IPS_TEST_DATA_DIR));
+    scene = scene.substr(0, scene.find("\nmarkers:")) + R"(
+markers:
+  - id: 1
+    length: 0.20
+    height: 0.15
+    trajectory: {type: circle, center: [2.4, 2.4], radius: 1.0, speed: 0.3}
+  - id: 2
+    length: 0.20
+    height: 0.10
+    trajectory: {type: line, from: [1.6, 1.2], to: [3.2, 3.6], speed: 0.25}
+)";
+    std::ofstream(*dir_ / "scene.yaml") << scene;
+    // The model: simulated calibration pairs, plane mapper (what tools/demo.sh does).
+    const auto log = *dir_ / "setup.log";
+    ASSERT_EQ(test::run({test::bin("ips"), "sim", "collect", "--scene", (*dir_ / "scene.yaml").string(), "--points",
+                         "25", "--out", (*dir_ / "pairs.csv").string()},
+                        log),
+              0)
+        << test::read_file(log);
+    ASSERT_EQ(test::run({test::bin("ips"), "fit", "--data", (*dir_ / "pairs.csv").string(), "--method", "plane",
+                         "--out", (*dir_ / "model.json").string()},
+                        log),
+              0)
+        << test::read_file(log);
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+  }
+
+  // A configuration for this test's directory; `extra` is appended verbatim.
+  static std::string config(std::uint16_t port, const std::string& model, const std::string& method = "mean",
+                            const std::string& extra = "") {
+    std::string c = "cameras:\n";
+    for (const char* name : {"red", "white", "black"})
+      c += std::string("  - {name: ") + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(kFps) + "}\n";
+    c += "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n";
+    c += "model_file: " + model + "\n";
+    c += "fusion: {method: " + method + ", window: 0.02, max_wait: 0.5}\n";
+    c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(port) + ", format: binary}\n";
+    c += "status: {interval: 2, socket: " + (*dir_ / "status.sock").string() + "}\n";
+    return c + extra;
+  }
+
+  static fs::path* dir_;
+};
+fs::path* IpsdTest::dir_ = nullptr;
+
+struct Received {
+  Datagram d;
+  std::int64_t arrival_mono_ns;
+};
+
+// Receives for `seconds` (or until `updates` datagrams came).
+std::vector<Received> receive(test::UdpReceiver& rx, double seconds, std::size_t updates) {
+  std::vector<Received> out;
+  const std::int64_t end = monotonic_ns() + static_cast<std::int64_t>(seconds * 1e9);
+  while (monotonic_ns() < end && out.size() < updates) {
+    auto bytes = rx.receive(100);
+    if (!bytes) continue;
+    out.push_back({decode_datagram(*bytes), monotonic_ns()});
+  }
+  return out;
+}
+
+TEST_F(IpsdTest, StreamMatchesTheSimulatorsTruthAndSurvivesABadReload) {
+  test::UdpReceiver rx;
+  fs::copy_file(*dir_ / "model.json", *dir_ / "live_model.json", fs::copy_options::overwrite_existing);
+  const fs::path cfg = *dir_ / "ipsd.yaml";
+  std::ofstream(cfg) << config(rx.port, "live_model.json");
+  const fs::path log = *dir_ / "ipsd.log";
+  const pid_t pid = test::spawn({test::bin("ipsd"), "--config", cfg.string()}, log);
+
+  // First datagram: the cameras opened (each builds its renderer) and the pipeline runs.
+  auto first = receive(rx, 20.0, 1);
+  ASSERT_EQ(first.size(), 1u) << test::read_file(log);
+  const auto got = receive(rx, 12.0, 30);
+  ASSERT_GE(got.size(), 15u) << test::read_file(log);
+
+  const auto status = nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()));
+  ASSERT_EQ(status["type"], "ipsd.status");
+  const std::int64_t epoch = status["synthetic_epoch_mono_ns"];
+  const auto scene = sim::Scene::load(*dir_ / "scene.yaml");
+  const std::int64_t real_minus_mono = realtime_minus_monotonic_ns();
+
+  std::uint32_t expected_seq = first[0].d.sequence + 1;
+  int fused_from_several = 0, positions = 0;
+  double worst = 0.0;
+  for (const auto& [d, arrival] : got) {
+    // Sequence numbers: +1 per datagram, no gaps.
+    EXPECT_EQ(d.sequence, expected_seq) << "gap before update " << d.update;
+    expected_seq = d.sequence + 1;
+    // Capture time = a simulated frame instant epoch + round(k * 1e9 / fps), k integral.
+    const std::int64_t since = d.capture_monotonic_ns - epoch;
+    const auto k = std::llround(static_cast<double>(since) * kFps * 1e-9);
+    EXPECT_EQ(since, std::llround(static_cast<double>(k) * 1e9 / kFps)) << "not a frame time";
+    EXPECT_NEAR(static_cast<double>(d.capture_realtime_ns - d.capture_monotonic_ns),
+                static_cast<double>(real_minus_mono), 2e6);
+    EXPECT_LT(d.capture_monotonic_ns, arrival);
+    for (const auto& m : d.markers) {
+      ASSERT_TRUE(m.id == 1 || m.id == 2) << m.id;
+      const double t = 1e-9 * static_cast<double>(since + 1000LL * m.dt_us);
+      const sim::MarkerPose truth = scene.marker_pose(static_cast<int>(m.id), t);
+      const double err = std::hypot(m.x - truth.x, m.y - truth.y);
+      worst = std::max(worst, err);
+      EXPECT_LT(err, 0.02) << "marker " << m.id << " at t " << t << ": (" << m.x << ", " << m.y << ") vs ("
+                           << truth.x << ", " << truth.y << "), cameras 0x" << std::hex << m.camera_mask;
+      EXPECT_NEAR(m.z, m.id == 1 ? 0.15 : 0.10, 1e-6);  // plane mapper: the known height
+      EXPECT_NE(m.camera_mask, 0u);
+      fused_from_several += std::popcount(m.camera_mask) >= 2;
+      ++positions;
+    }
+  }
+  EXPECT_GT(positions, 20);
+  EXPECT_GT(fused_from_several, 0) << "no marker was fused from two cameras";
+  std::printf("[ ipsd    ] %d positions, worst 2D error %.2f cm, %d fused from >= 2 cameras\n", positions,
+              worst * 100, fused_from_several);
+
+  // SIGHUP with a corrupt model file: refused, the old model keeps publishing accurately.
+  std::ofstream(*dir_ / "live_model.json") << "{\"format\": \"ips-model\", \"cameras\": [truncated";
+  ASSERT_EQ(::kill(pid, SIGHUP), 0);
+  for (int i = 0; i < 100 && test::read_file(log).find("reload refused") == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_NE(test::read_file(log).find("reload refused"), std::string::npos) << test::read_file(log);
+  const auto after = receive(rx, 10.0, 8);
+  ASSERT_GE(after.size(), 4u) << "stopped publishing after a bad reload";
+  for (const auto& [d, arrival] : after) {
+    for (const auto& m : d.markers) {
+      const double t = 1e-9 * static_cast<double>(d.capture_monotonic_ns - epoch + 1000LL * m.dt_us);
+      const sim::MarkerPose truth = scene.marker_pose(static_cast<int>(m.id), t);
+      EXPECT_LT(std::hypot(m.x - truth.x, m.y - truth.y), 0.02);
+    }
+  }
+
+  // A good reload applies: the model back and the fusion method changed.
+  fs::copy_file(*dir_ / "model.json", *dir_ / "live_model.json", fs::copy_options::overwrite_existing);
+  std::ofstream(cfg) << config(rx.port, "live_model.json", "median");
+  ASSERT_EQ(::kill(pid, SIGHUP), 0);
+  std::string method;
+  for (int i = 0; i < 100 && method != "median"; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const auto j = nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()), nullptr, false);
+    if (j.is_object()) method = j.value("fusion_method", "");
+  }
+  EXPECT_EQ(method, "median");
+  EXPECT_GE(receive(rx, 10.0, 3).size(), 3u);
+
+  // SIGTERM: a clean stop within 2 s.
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(::kill(pid, SIGTERM), 0);
+  const auto code = test::wait_exit(pid, std::chrono::seconds(5));
+  const double stop_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(code.has_value());
+  EXPECT_EQ(*code, 0) << test::read_file(log);
+  EXPECT_LT(stop_s, 2.0);
+  EXPECT_NE(test::read_file(log).find("status red:"), std::string::npos) << "no periodic status line";
+}
+
+TEST_F(IpsdTest, MalformedConfigurationsAreRefusedWithExitStatus2) {
+  const std::uint16_t port = test::free_udp_port();
+  const std::string good = config(port, "model.json");
+  struct Case {
+    std::string name, yaml, message;
+  };
+  auto replace = [](std::string s, const std::string& from, const std::string& to) {
+    return s.replace(s.find(from), from.size(), to);
+  };
+  const std::vector<Case> cases = {
+      {"unknown key", good + "colour: red\n", "colour: unknown key"},
+      {"wrong type", replace(good, "window: 0.02", "window: soon"), "fusion.window: expected a number"},
+      {"unknown fusion", replace(good, "method: mean", "method: average"), "fusion.method: unknown method 'average'"},
+      {"missing model file", replace(good, "model_file: model.json", "model_file: nothere.json"),
+       "model_file: no such file"},
+      {"camera without model", replace(good, "{name: black,", "{name: black, model: green,"),
+       "cameras[2].model: model file"},
+      {"corrupt model", replace(good, "model_file: model.json", "model_file: scene.yaml"), "model_file:"},
+      {"missing intrinsics", replace(good, "{name: red,", "{name: red, intrinsics: none.yaml,"),
+       "cameras[0].intrinsics: no such file"},
+      {"unknown scene camera", replace(good, "{name: red,", "{name: red, scene_camera: green,"),
+       "cameras[0].scene_camera: scene has no camera 'green'"},
+      {"no height for plane", replace(good, "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n", ""),
+       "markers.height"},
+      {"bad output", replace(good, "type: unicast", "type: multicast"), "outputs[0].address: '127.0.0.1' is not a multicast group"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    const fs::path cfg = *dir_ / "bad.yaml";
+    std::ofstream(cfg) << c.yaml;
+    const fs::path log = *dir_ / "bad.log";
+    fs::remove(log);
+    EXPECT_EQ(test::run({test::bin("ipsd"), "--config", cfg.string()}, log, std::chrono::seconds(20)), 2);
+    const std::string out = test::read_file(log);
+    EXPECT_NE(out.find(c.message), std::string::npos) << out;
+  }
+}
+
+}  // namespace
+}  // namespace ips

@@ -1,0 +1,12 @@
+/* Compiled as strict C99 by tests/output/extra.cmake: proves include/ips/wire.h is plain C
+ * that robot firmware can include, warning-free. */
+#include "ips/wire.h"
+
+int ips_wire_c_check(const uint8_t* buf, size_t len);
+int ips_wire_c_check(const uint8_t* buf, size_t len) {
+  struct ips_wire_header h;
+  struct ips_wire_marker m;
+  int status = ips_wire_read_header(buf, len, &h);
+  if (status == IPS_WIRE_OK && h.marker_count > 0) ips_wire_read_marker(buf, &h, 0, &m);
+  return status;
+}
