@@ -1,4 +1,5 @@
 // `ips fit`: fit one mapper per camera on a calibration CSV and write the model file.
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -62,7 +63,10 @@ std::function<int()> setup(CLI::App& sub) {
         if (args->cameras.empty()) {
           for (const auto& set : data.cameras) sets.push_back(&set);
         } else {
-          for (const auto& camera : args->cameras) sets.push_back(&require_camera(data, camera));
+          for (const auto& camera : args->cameras) {
+            const CalibSet* set = &require_camera(data, camera);
+            if (std::find(sets.begin(), sets.end(), set) == sets.end()) sets.push_back(set);
+          }
         }
         // Check every camera before fitting anything, so a bad file fails fast.
         for (const CalibSet* set : sets) {
