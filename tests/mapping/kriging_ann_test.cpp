@@ -75,7 +75,7 @@ TEST(Ann, FitsASmoothFunction) {
 }
 
 TEST(Ann, IsDeterministicForASeed) {
-  const Points cam = cam_points(30, 51);
+  const Points cam = cam_points(20, 51);
   Points world;
   for (const auto& c : cam) world.push_back(smooth(c));
   ips::FitOptions options;

@@ -46,7 +46,7 @@ TEST_P(RoundTrip, SaveLoadPredictIsBitIdentical) {
   ips::CameraModelEntry entry;
   entry.mapper = ips::make_mapper(GetParam());
   ips::FitOptions options;
-  options.folds = 4;
+  options.folds = 2;
   entry.mapper->fit(cam, world, options);
   entry.training = {{"n", 24}};
   set.cameras.emplace("red", std::move(entry));
