@@ -1,4 +1,13 @@
 // ArUco marker detection tuned for 1080p overhead fisheye frames.
+//
+// Steps of Detector::detect():
+//   1. downscale the greyscale frame by `detect_scale` (area averaging);
+//   2. OpenCV ArUco (4.6 contrib API) candidate search + decoding on the small image, with
+//      only the adaptive-threshold window sizes listed (the default parameters run three
+//      passes at full resolution, which is most of their cost);
+//   3. map the corners back to full resolution and refine them there, so sub-pixel accuracy
+//      does not depend on the detection scale: by default by fitting the four edges (see
+//      CornerRefinement), otherwise with cv::cornerSubPix.
 #pragma once
 
 #include <memory>
@@ -7,29 +16,90 @@
 
 #include <opencv2/core.hpp>
 
+#include "ips/camera_model.h"
 #include "ips/observation.h"
 
 namespace ips {
 
+enum class CornerRefinement {
+  /// Locate each edge at many points (mid-grey crossing across the edge), fit a line per
+  /// edge (in undistorted coordinates when a CameraModel is given, where a flat marker's
+  /// edges are straight), intersect. Unbiased on blurred L-corners; falls back to kSubPix
+  /// for a marker whose edges cannot all be measured.
+  kEdges,
+  /// cv::cornerSubPix: biased by ~0.15-0.2 px towards the inside of blurred L-corners.
+  kSubPix,
+  /// The detection-scale polygon corners (~detect_scale px accuracy).
+  kNone,
+};
+
 struct DetectorOptions {
-  std::string dictionary = "DICT_4X4_100";  ///< OpenCV predefined dictionary name
-  // The perception work adds its documented tunables here (scale, threshold passes, ...).
+  /// OpenCV predefined dictionary name (DICT_4X4_50 ... DICT_ARUCO_ORIGINAL, DICT_APRILTAG_*).
+  std::string dictionary = "DICT_4X4_100";
+  /// Detection runs on the image shrunk by this integer factor (1 = full resolution).
+  /// 2 quarters the threshold/contour cost; markers 40-200 px wide at 1080p stay >= 20 px.
+  int detect_scale = 2;
+  /// Adaptive-threshold window sizes (odd, pixels at the detection scale), one threshold +
+  /// contour pass each (~1.5 ms per window at 960x540). OpenCV's default is 3, 13, 23 at
+  /// full resolution (three passes). One 9 px window at half scale (18 px at full scale)
+  /// marks a band along every dark/bright edge, which outlines markers of 40-200 px under
+  /// smooth lighting gradients; add e.g. 19 for strongly uneven or very blurred images.
+  std::vector<int> threshold_windows = {9};
+  /// Constant subtracted from the local mean in adaptive thresholding, grey levels (OpenCV default 7).
+  double threshold_constant = 7.0;
+  /// Smallest marker perimeter considered, full-resolution pixels (a 40 px marker has 160).
+  double min_perimeter_px = 100.0;
+  /// Largest marker perimeter, as a fraction of the larger image side (OpenCV default 4).
+  double max_perimeter_rate = 4.0;
+  /// Fraction of the dictionary's correctable bits accepted when decoding (OpenCV default 0.6).
+  /// Lower rejects more false positives, higher recovers more damaged markers.
+  double error_correction_rate = 0.6;
+  /// Fraction of the border cells allowed to read white (OpenCV default 0.35). Lower rejects
+  /// more non-marker squares, higher tolerates blur and glare on the border.
+  double max_border_error_rate = 0.35;
+  /// Verification after decoding: a cell whose centre reads within `cell_ambiguity` x
+  /// contrast of the black/white mid level is ambiguous; a marker with more than
+  /// `max_ambiguous_cells` of them is rejected (a square of another grid, e.g. a 6x6
+  /// marker, misread as this dictionary). Negative max disables the check.
+  int max_ambiguous_cells = 2;
+  double cell_ambiguity = 0.2;
+  /// A marker whose black border and white quiet zone differ by less than this many grey
+  /// levels is rejected by the verification.
+  double min_contrast = 25.0;
+  /// How corners are refined at full resolution.
+  CornerRefinement refinement = CornerRefinement::kEdges;
+  /// Half-size of the cv::cornerSubPix search window at full resolution, pixels: the window
+  /// is (2w+1)^2. Must exceed the detection-scale corner error (~detect_scale px) and stay
+  /// below a marker cell (a 40 px marker of 6 cells has ~6.7 px cells). Default 4.
+  int refine_half_window_px = 4;
+  /// cornerSubPix stops after this many iterations or when a corner moves < refine_epsilon_px.
+  int refine_max_iterations = 30;
+  double refine_epsilon_px = 0.005;
 };
 
 class Detector {
  public:
-  /// Throws ips::InputError for an unknown dictionary name.
+  /// Throws ips::InputError for an unknown dictionary name or an invalid option.
   explicit Detector(const DetectorOptions& options = {});
   ~Detector();
   Detector(Detector&&) noexcept;
   Detector& operator=(Detector&&) noexcept;
 
-  /// Finds markers in an 8-bit greyscale image; corners refined to sub-pixel accuracy.
-  std::vector<MarkerDetection> detect(const cv::Mat& gray);
+  /// Finds markers in an 8-bit greyscale image; corners refined to sub-pixel accuracy at
+  /// full resolution. `camera` (optional, the image's intrinsics) lets edge refinement fit
+  /// straight lines in undistorted coordinates. Not thread-safe (reuses buffers); use one
+  /// Detector per thread.
+  std::vector<MarkerDetection> detect(const cv::Mat& gray, const CameraModel* camera = nullptr);
+
+  const DetectorOptions& options() const;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// The OpenCV dictionary id for a name such as "DICT_4X4_100". Throws ips::InputError
+/// listing the known names.
+int dictionary_id(const std::string& name);
 
 }  // namespace ips

@@ -1,0 +1,57 @@
+// Frames from a video file (anything cv::VideoCapture reads) or a directory of images, for
+// replaying recordings through the daemon and for tests. Paced at a fixed rate and
+// time-stamped with the clock at read time (a file has no capture clock of its own).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/videoio.hpp>
+
+#include "ips/frame_source.h"
+
+namespace ips {
+
+struct FileSourceOptions {
+  /// A video file, or a directory whose images (.png .jpg .jpeg .bmp .tif .tiff .pgm .ppm)
+  /// are played in file-name order.
+  std::string path;
+  /// Playback rate in frames per second: read() waits until the next frame is due.
+  /// 0 = no pacing (as fast as the caller reads).
+  double fps = 30.0;
+  /// true = start again at the end; false = read() returns kEnd after the last frame.
+  bool loop = true;
+
+  /// Throws ips::InputError naming the offending field.
+  void validate() const;
+};
+
+class FileSource : public FrameSource {
+ public:
+  explicit FileSource(FileSourceOptions options);
+
+  /// Throws ips::SourceError if the path is missing, unreadable, or holds no image.
+  void open() override;
+  /// kTimeout if the next frame is not due within `timeout`; kCorrupt for an unreadable
+  /// image in a directory (skipped); kEnd at the end when not looping.
+  ReadStatus read(Frame& out, std::chrono::milliseconds timeout) override;
+  void close() noexcept override;
+  std::string describe() const override;
+
+ private:
+  bool read_image(cv::Mat& gray, bool& corrupt);
+
+  FileSourceOptions options_;
+  bool open_ = false;
+  bool is_directory_ = false;
+  std::vector<std::string> files_;
+  std::size_t next_file_ = 0;
+  cv::VideoCapture video_;
+  cv::Mat decoded_;
+  std::uint64_t sequence_ = 0;
+  std::int64_t next_due_ns_ = 0;  // CLOCK_MONOTONIC
+};
+
+}  // namespace ips

@@ -1,0 +1,109 @@
+// A simulated lab: cameras (intrinsics + pose), a textured floor, and ArUco markers that
+// stand still or follow trajectories. Loaded from a scene YAML file (see README, perception).
+//
+// World frame: x, y on the floor (origin at one floor corner, floor spans [0, size_x] x
+// [0, size_y]), z up, metres. Camera frame (OpenCV): x right in the image, y down, z along
+// the optical axis. The default camera orientation looks straight down with image x along
+// world x and image y along world -y: x_c = x_w, y_c = -y_w, z_c = -z_w.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ips/camera_model.h"
+
+namespace ips::sim {
+
+/// A marker's pose in the world at some instant.
+struct MarkerPose {
+  double x = 0.0, y = 0.0;  ///< centre on the floor plane, metres
+  double z = 0.0;           ///< height of the marker's face above the floor, metres
+  double yaw = 0.0;         ///< marker x-axis heading from world +x towards +y, radians
+};
+
+/// How a marker moves. Static markers stay at their start pose.
+struct Trajectory {
+  enum class Kind { kStatic, kCircle, kLine, kWaypoints };
+  Kind kind = Kind::kStatic;
+  double speed = 0.0;              ///< m/s along the path
+  Eigen::Vector2d center{0, 0};    ///< circle centre, metres
+  double radius = 0.0;             ///< circle radius, metres
+  bool clockwise = false;          ///< circle direction seen from above
+  std::vector<Eigen::Vector2d> points;  ///< line: {from, to} (back and forth); waypoints: closed loop
+  bool heading_follows_path = true;     ///< yaw = direction of travel (+ yaw offset) else fixed yaw
+};
+
+struct SceneMarker {
+  int id = 0;
+  double length = 0.20;    ///< black-square edge length L, metres
+  double margin = -1.0;    ///< white border around the black square, metres (<0: one cell, L/(bits+2))
+  MarkerPose start;        ///< pose at t = 0 for static markers; height and yaw offset for moving ones
+  Trajectory trajectory;
+};
+
+struct SceneCamera {
+  std::string name;
+  std::filesystem::path intrinsics_path;
+  CameraModel model;
+  Eigen::Vector3d position{0, 0, 2.1};   ///< optical centre in the world, metres
+  Eigen::Matrix3d R_wc;                  ///< columns: camera x, y, z axes in world coordinates
+
+  Eigen::Vector3d world_to_camera(const Eigen::Vector3d& p_world) const {
+    return R_wc.transpose() * (p_world - position);
+  }
+  Eigen::Vector3d camera_to_world(const Eigen::Vector3d& p_cam) const {
+    return R_wc * p_cam + position;
+  }
+};
+
+struct Floor {
+  double size_x = 4.88, size_y = 4.88;  ///< metres
+  double grey = 120.0;                  ///< mean grey level (0..255) before vignetting
+  double texture_contrast = 18.0;       ///< +- grey levels of the procedural texture
+  double texture_scale = 0.05;          ///< texture feature size, metres
+  unsigned seed = 1;
+};
+
+/// Image formation settings shared by all cameras of the scene.
+struct RenderSettings {
+  int supersample = 3;          ///< s x s samples per pixel on marker regions (anti-aliasing)
+  double noise_sigma = 2.0;     ///< Gaussian sensor noise, grey levels
+  int jpeg_quality = 90;        ///< 1..100; 0 = deliver frames without JPEG compression
+  double vignetting = 0.35;     ///< brightness loss at the image corner (r^2 fall-off), 0..1
+  double gradient = 0.15;       ///< lighting gradient across the floor along world x, +-fraction
+  double exposure = 0.0;        ///< exposure time for motion blur, seconds (0 = sharp)
+  int blur_samples = 5;         ///< time samples across the exposure when exposure > 0
+  double white = 215.0;         ///< grey level of white marker paper at full illumination
+  double black = 30.0;          ///< grey level of the black marker ink
+  unsigned seed = 1;            ///< noise seed
+};
+
+class Scene {
+ public:
+  std::string dictionary = "DICT_4X4_100";
+  Floor floor;
+  RenderSettings render;
+  std::vector<SceneCamera> cameras;
+  std::vector<SceneMarker> markers;
+
+  /// Loads and validates a scene file. Intrinsics paths are relative to the scene file.
+  /// Throws ips::InputError naming the file, line and key.
+  static Scene load(const std::filesystem::path& path);
+
+  /// Pose of marker `index` (into `markers`) at scene time t (seconds).
+  MarkerPose marker_pose_at(std::size_t index, double t) const;
+  /// Pose of the marker with this id; throws std::out_of_range if absent.
+  MarkerPose marker_pose(int id, double t) const;
+
+  /// Index of the camera called `name`; throws ips::InputError listing the names if absent.
+  std::size_t camera_index(const std::string& name) const;
+
+  /// The standard straight-down orientation rotated by roll, pitch, yaw (radians, about the
+  /// world x, y, z axes, applied in that order).
+  static Eigen::Matrix3d orientation(double roll, double pitch, double yaw);
+};
+
+}  // namespace ips::sim

@@ -1,0 +1,75 @@
+// A FrameSource that renders one camera of a simulated Scene (moving markers, exact truth).
+//
+// Time: frame k is captured at scene time t_k = k / fps. Scene time 0 is the CLOCK_MONOTONIC
+// instant `epoch_mono_ns`, so frame k carries t_mono_ns = epoch + round(k * 1e9 / fps) and
+// scene_time(t_mono_ns) recovers t_k. Several sources of the same scene given the same epoch
+// (one per camera) therefore agree on the scene time of any capture time, and the truth of a
+// frame is scene.marker_pose(id, source.scene_time(frame.t_mono_ns)).
+//
+// Pacing: `realtime` sleeps until each frame's capture time, like a camera; if rendering
+// falls behind, frames are skipped (sequence numbers jump, as with driver drops). Otherwise
+// frames come as fast as they render, still stamped with their simulated capture times.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ips/frame_source.h"
+#include "ips/jpeg_decoder.h"
+#include "ips/sim/renderer.h"
+#include "ips/sim/scene.h"
+
+namespace ips::sim {
+
+struct SyntheticSourceOptions {
+  std::string camera;              ///< camera name in the scene
+  double fps = 30.0;               ///< frame rate, frames per second of scene time
+  bool realtime = true;            ///< pace on CLOCK_MONOTONIC (true) or as fast as possible
+  std::int64_t epoch_mono_ns = 0;  ///< CLOCK_MONOTONIC of scene time 0; 0 = monotonic_ns() at open()
+  std::uint64_t max_frames = 0;    ///< read() returns kEnd after this many frames; 0 = endless
+  bool colour_jpeg = false;        ///< encode as 3-channel MJPEG like a USB camera (slower) or 1-channel
+};
+
+class SyntheticSource : public FrameSource {
+ public:
+  /// Throws ips::InputError for an unknown camera name or fps <= 0. Builds the camera's
+  /// renderer (ray map, background): ~0.3 s at 1080p.
+  SyntheticSource(std::shared_ptr<const Scene> scene, SyntheticSourceOptions options);
+
+  void open() override;
+  ReadStatus read(Frame& out, std::chrono::milliseconds timeout) override;
+  void close() noexcept override;
+  std::string describe() const override;
+
+  /// Scene time (seconds) of a capture time stamped by this source.
+  double scene_time(std::int64_t t_mono_ns) const {
+    return static_cast<double>(t_mono_ns - epoch_mono_ns_) * 1e-9;
+  }
+  std::int64_t epoch_mono_ns() const { return epoch_mono_ns_; }
+  /// Truth of every scene marker in this camera at a frame's capture time.
+  std::vector<MarkerTruth> truth(std::int64_t t_mono_ns) const { return renderer_.truth(scene_time(t_mono_ns)); }
+  /// The JPEG bytes of the last frame (empty when the scene's jpeg_quality is 0).
+  const std::vector<std::uint8_t>& last_jpeg() const { return jpeg_; }
+  const CameraRenderer& renderer() const { return renderer_; }
+  const Scene& scene() const { return *scene_; }
+
+ private:
+  std::int64_t frame_time_ns(std::uint64_t k) const;
+
+  std::shared_ptr<const Scene> scene_;
+  SyntheticSourceOptions options_;
+  CameraRenderer renderer_;
+  JpegDecoder decoder_;
+  cv::Mat rendered_;
+  std::vector<std::uint8_t> jpeg_;
+  bool open_ = false;
+  std::int64_t epoch_mono_ns_ = 0;
+  std::int64_t real_minus_mono_ns_ = 0;
+  std::uint64_t next_ = 0;       ///< index of the next frame
+  std::uint64_t delivered_ = 0;
+};
+
+}  // namespace ips::sim

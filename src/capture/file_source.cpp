@@ -1,0 +1,127 @@
+#include "ips/file_source.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ips/clock.h"
+#include "ips/error.h"
+
+namespace ips {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool is_image(const fs::path& p) {
+  static const std::set<std::string> kExtensions{".png", ".jpg",  ".jpeg", ".bmp",
+                                                 ".tif", ".tiff", ".pgm",  ".ppm"};
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return kExtensions.count(ext) > 0;
+}
+
+void to_gray(const cv::Mat& in, cv::Mat& gray) {
+  if (in.channels() == 3)
+    cv::cvtColor(in, gray, cv::COLOR_BGR2GRAY);
+  else if (in.channels() == 4)
+    cv::cvtColor(in, gray, cv::COLOR_BGRA2GRAY);
+  else
+    in.copyTo(gray);
+}
+
+}  // namespace
+
+void FileSourceOptions::validate() const {
+  if (path.empty()) throw InputError("file source: 'path' is empty");
+  if (!(fps >= 0 && fps <= 10000)) throw InputError("file source: 'fps' must be in [0, 10000]");
+}
+
+FileSource::FileSource(FileSourceOptions options) : options_(std::move(options)) {
+  options_.validate();
+}
+
+std::string FileSource::describe() const { return "file:" + options_.path; }
+
+void FileSource::open() {
+  close();
+  std::error_code ec;
+  if (!fs::exists(options_.path, ec)) throw SourceError(describe() + ": no such file or directory");
+  is_directory_ = fs::is_directory(options_.path, ec);
+  if (is_directory_) {
+    for (const auto& entry : fs::directory_iterator(options_.path, ec))
+      if (entry.is_regular_file() && is_image(entry.path()))
+        files_.push_back(entry.path().string());
+    std::sort(files_.begin(), files_.end());
+    if (files_.empty()) throw SourceError(describe() + ": the directory holds no image");
+  } else if (!video_.open(options_.path) || !video_.isOpened()) {
+    throw SourceError(describe() + ": cannot open as a video");
+  }
+  next_file_ = 0;
+  next_due_ns_ = monotonic_ns();
+  open_ = true;
+}
+
+void FileSource::close() noexcept {
+  open_ = false;
+  files_.clear();
+  if (video_.isOpened()) video_.release();
+}
+
+bool FileSource::read_image(cv::Mat& gray, bool& corrupt) {
+  corrupt = false;
+  if (is_directory_) {
+    if (next_file_ == files_.size()) {
+      if (!options_.loop) return false;
+      next_file_ = 0;
+    }
+    const std::string& file = files_[next_file_++];
+    decoded_ = cv::imread(file, cv::IMREAD_UNCHANGED);
+    if (decoded_.empty() || decoded_.depth() != CV_8U) {
+      spdlog::warn("{}: cannot read {} as an 8-bit image; skipped", describe(), file);
+      corrupt = true;
+      return true;
+    }
+  } else if (!video_.read(decoded_)) {
+    // End of the video: rewind (reopening, which every backend supports) or stop.
+    if (!options_.loop) return false;
+    video_.release();
+    if (!video_.open(options_.path) || !video_.read(decoded_))
+      throw SourceError(describe() + ": cannot read a frame after rewinding");
+  }
+  to_gray(decoded_, gray);
+  return true;
+}
+
+FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds timeout) {
+  if (!open_) throw SourceError(describe() + ": read() on a closed source");
+  if (options_.fps > 0) {
+    const std::int64_t now = monotonic_ns();
+    const std::int64_t timeout_ns = std::chrono::nanoseconds(timeout).count();
+    if (next_due_ns_ > now + timeout_ns) {
+      std::this_thread::sleep_for(timeout);
+      return ReadStatus::kTimeout;
+    }
+    if (next_due_ns_ > now)
+      std::this_thread::sleep_for(std::chrono::nanoseconds(next_due_ns_ - now));
+    const auto period = static_cast<std::int64_t>(std::llround(1e9 / options_.fps));
+    // A caller that fell behind gets at most one overdue frame at once, not a burst.
+    next_due_ns_ = std::max(next_due_ns_ + period, monotonic_ns());
+  }
+  if (out.gray.u != nullptr && out.gray.u->refcount > 1) out.gray.release();
+  bool corrupt = false;
+  if (!read_image(out.gray, corrupt)) return ReadStatus::kEnd;
+  if (corrupt) return ReadStatus::kCorrupt;
+  out.sequence = sequence_++;
+  out.t_mono_ns = monotonic_ns();
+  out.t_real_ns = out.t_mono_ns + realtime_minus_monotonic_ns();
+  return ReadStatus::kFrame;
+}
+
+}  // namespace ips

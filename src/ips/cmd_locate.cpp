@@ -1,0 +1,97 @@
+// `ips locate`: detect the markers in one image and print their camera coordinates.
+#include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "image_io.h"
+#include "ips/camera_model.h"
+#include "ips/detector.h"
+#include "ips/error.h"
+#include "ips/marker_geometry.h"
+
+namespace {
+
+struct LocateArgs {
+  std::string image;
+  std::string intrinsics;
+  double marker_length = 0.20;
+  std::vector<std::string> marker_sizes;  // "ID=LENGTH"
+  std::string dictionary = "DICT_4X4_100";
+  bool json = false;
+};
+
+ips::MarkerSizes parse_sizes(const LocateArgs& a) {
+  ips::MarkerSizes sizes;
+  if (!(a.marker_length > 0)) throw ips::InputError("--marker-length must be > 0");
+  sizes.default_length = a.marker_length;
+  for (const auto& s : a.marker_sizes) {
+    const auto eq = s.find('=');
+    try {
+      if (eq == std::string::npos) throw std::invalid_argument("no '='");
+      std::size_t used = 0;
+      const int id = std::stoi(s.substr(0, eq), &used);
+      if (used != eq) throw std::invalid_argument("id");
+      const std::string len_text = s.substr(eq + 1);
+      const double len = std::stod(len_text, &used);
+      if (used != len_text.size() || !(len > 0) || id < 0) throw std::invalid_argument("value");
+      sizes.by_id[id] = len;
+    } catch (const std::exception&) {
+      throw ips::InputError("--marker-size '" + s + "': expected ID=LENGTH_IN_METRES, e.g. 7=0.15");
+    }
+  }
+  return sizes;
+}
+
+int run_locate(const LocateArgs& a) {
+  const ips::MarkerSizes sizes = parse_sizes(a);
+  const ips::CameraModel camera = ips::CameraModel::load(a.intrinsics);
+  ips::DetectorOptions options;
+  options.dictionary = a.dictionary;
+  ips::Detector detector(options);
+  const cv::Mat gray = ips::cli::read_gray_image(a.image);
+  if (gray.size() != camera.size()) {
+    throw ips::InputError(a.image + ": image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                          " but the intrinsics " + a.intrinsics + " are for " +
+                          std::to_string(camera.size().width) + "x" + std::to_string(camera.size().height));
+  }
+  const auto found = detector.detect(gray, &camera);
+  nlohmann::json markers = nlohmann::json::array();
+  if (!a.json) std::printf("%zu marker(s) in %s\n", found.size(), a.image.c_str());
+  for (const auto& d : found) {
+    const auto o = ips::locate_marker(d, camera, sizes.length_of(d.id));
+    if (!std::isfinite(o.p_cam.z())) continue;  // a corner outside the lens model
+    if (a.json) {
+      nlohmann::json corners = nlohmann::json::array();
+      for (const auto& c : o.corners_px) corners.push_back({c.x, c.y});
+      markers.push_back({{"id", o.id}, {"corners", corners}, {"xc", o.p_cam.x()}, {"yc", o.p_cam.y()},
+                         {"zc", o.p_cam.z()}, {"yaw", o.yaw}, {"area", o.area_px}, {"length", o.edge_length}});
+    } else {
+      std::printf("id %3d  xc %+.4f  yc %+.4f  zc %.4f m  yaw %+7.2f deg  area %8.1f px^2  corners",
+                  o.id, o.p_cam.x(), o.p_cam.y(), o.p_cam.z(), o.yaw * 180.0 / M_PI, o.area_px);
+      for (const auto& c : o.corners_px) std::printf(" (%.2f, %.2f)", c.x, c.y);
+      std::printf("\n");
+    }
+  }
+  if (a.json) std::printf("%s\n", nlohmann::json{{"markers", markers}}.dump().c_str());
+  return 0;
+}
+
+IPS_REGISTER_COMMAND(
+    "locate", "Detect ArUco markers in one image and print their camera coordinates",
+    [](CLI::App& sub) -> std::function<int()> {
+      auto a = std::make_shared<LocateArgs>();
+      sub.add_option("--image", a->image, "Image file (JPEG, PNG, ...)")->required();
+      sub.add_option("--intrinsics", a->intrinsics, "Camera intrinsics (ipsd YAML or OpenCV calibration file)")
+          ->required();
+      sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")->capture_default_str();
+      sub.add_option("--marker-size", a->marker_sizes, "Per-marker edge length ID=METRES (repeatable)");
+      sub.add_option("--dictionary", a->dictionary, "ArUco dictionary")->capture_default_str();
+      sub.add_flag("--json", a->json, "Print JSON instead of text");
+      return [a] { return run_locate(*a); };
+    });
+
+}  // namespace

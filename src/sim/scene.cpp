@@ -1,0 +1,339 @@
+#include "ips/sim/scene.h"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+#include <yaml-cpp/yaml.h>
+
+#include "ips/detector.h"
+#include "ips/error.h"
+
+namespace ips::sim {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// Reads typed values from a YAML node and reports errors as "file:line: key: problem".
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& key, const std::string& what) const {
+    const int line = node.IsDefined() ? node.Mark().line + 1 : 0;
+    throw InputError(file_ + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + key +
+                     ": " + what);
+  }
+
+  double number(const YAML::Node& parent, const std::string& path, const char* key, double def,
+                bool required = false) const {
+    const YAML::Node n = parent[key];
+    if (!n) {
+      if (required) fail(parent, path + key, "missing");
+      return def;
+    }
+    double v = 0.0;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(n, path + key, "not a number");
+    }
+    if (!std::isfinite(v)) fail(n, path + key, "not finite");
+    return v;
+  }
+
+  std::vector<double> numbers(const YAML::Node& parent, const std::string& path, const char* key,
+                              std::size_t min_n, std::size_t max_n) const {
+    const YAML::Node n = parent[key];
+    if (!n) fail(parent, path + key, "missing");
+    if (!n.IsSequence() || n.size() < min_n || n.size() > max_n) {
+      fail(n, path + key, "expected a list of " + std::to_string(min_n) +
+                              (max_n != min_n ? ".." + std::to_string(max_n) : std::string()) + " numbers");
+    }
+    std::vector<double> out;
+    for (const auto& v : n) {
+      double x = 0.0;
+      try {
+        x = v.as<double>();
+      } catch (const YAML::Exception&) {
+        fail(v, path + key, "not a number");
+      }
+      if (!std::isfinite(x)) fail(v, path + key, "not finite");
+      out.push_back(x);
+    }
+    return out;
+  }
+
+  std::string text(const YAML::Node& parent, const std::string& path, const char* key,
+                   const std::string& def) const {
+    const YAML::Node n = parent[key];
+    if (!n) return def;
+    if (!n.IsScalar()) fail(n, path + key, "expected a string");
+    return n.as<std::string>();
+  }
+
+  void only_keys(const YAML::Node& map, const std::string& path,
+                 std::initializer_list<const char*> keys) const {
+    if (!map.IsMap()) fail(map, path.empty() ? "scene" : path, "expected a mapping");
+    for (const auto& kv : map) {
+      const auto k = kv.first.as<std::string>();
+      bool ok = false;
+      for (const char* allowed : keys) ok = ok || k == allowed;
+      if (!ok) {
+        std::string list;
+        for (const char* allowed : keys) list += (list.empty() ? "" : ", ") + std::string(allowed);
+        fail(kv.first, path + k, "unknown key (expected one of: " + list + ")");
+      }
+    }
+  }
+
+ private:
+  std::string file_;
+};
+
+Eigen::Vector2d vec2(const std::vector<double>& v) { return {v[0], v[1]}; }
+
+Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::string& path) {
+  r.only_keys(n, path, {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading"});
+  Trajectory t;
+  const std::string type = r.text(n, path, "type", "");
+  t.speed = r.number(n, path, "speed", 0.0, true);
+  if (t.speed < 0) r.fail(n["speed"], path + "speed", "must be >= 0");
+  const std::string heading = r.text(n, path, "heading", "path");
+  if (heading != "path" && heading != "fixed") r.fail(n["heading"], path + "heading", "expected path or fixed");
+  t.heading_follows_path = heading == "path";
+  if (type == "circle") {
+    t.kind = Trajectory::Kind::kCircle;
+    t.center = vec2(r.numbers(n, path, "center", 2, 2));
+    t.radius = r.number(n, path, "radius", 0.0, true);
+    if (!(t.radius > 0)) r.fail(n["radius"], path + "radius", "must be > 0");
+    if (n["clockwise"]) {
+      try {
+        t.clockwise = n["clockwise"].as<bool>();
+      } catch (const YAML::Exception&) {
+        r.fail(n["clockwise"], path + "clockwise", "expected true or false");
+      }
+    }
+  } else if (type == "line") {
+    t.kind = Trajectory::Kind::kLine;
+    t.points = {vec2(r.numbers(n, path, "from", 2, 2)), vec2(r.numbers(n, path, "to", 2, 2))};
+    if ((t.points[1] - t.points[0]).norm() < 1e-9) r.fail(n["to"], path + "to", "equals 'from'");
+  } else if (type == "waypoints") {
+    t.kind = Trajectory::Kind::kWaypoints;
+    const YAML::Node pts = n["points"];
+    if (!pts || !pts.IsSequence() || pts.size() < 2) {
+      r.fail(pts ? pts : n, path + "points", "expected a list of at least 2 [x, y] points");
+    }
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      YAML::Node holder;
+      holder["p"] = pts[i];
+      t.points.push_back(vec2(r.numbers(holder, path + "points[" + std::to_string(i) + "]", "p", 2, 2)));
+    }
+  } else {
+    r.fail(n["type"] ? n["type"] : n, path + "type", "expected circle, line or waypoints, got '" + type + "'");
+  }
+  return t;
+}
+
+// Position and direction of travel at arc length s along a closed polyline.
+void along_polyline(const std::vector<Eigen::Vector2d>& pts, double s, Eigen::Vector2d& pos,
+                    Eigen::Vector2d& dir) {
+  double total = 0.0;
+  for (std::size_t i = 0; i < pts.size(); ++i) total += (pts[(i + 1) % pts.size()] - pts[i]).norm();
+  s = std::fmod(s, total);
+  if (s < 0) s += total;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Eigen::Vector2d a = pts[i];
+    const Eigen::Vector2d b = pts[(i + 1) % pts.size()];
+    const double len = (b - a).norm();
+    if (s <= len || i + 1 == pts.size()) {
+      dir = len > 0 ? Eigen::Vector2d((b - a) / len) : Eigen::Vector2d(1, 0);
+      pos = a + dir * std::min(s, len);
+      return;
+    }
+    s -= len;
+  }
+}
+
+}  // namespace
+
+Eigen::Matrix3d Scene::orientation(double roll, double pitch, double yaw) {
+  Eigen::Matrix3d down;
+  down << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // columns: camera x = world x, y = -world y, z = down
+  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+             .toRotationMatrix() *
+         down;
+}
+
+Scene Scene::load(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw InputError(file + ": cannot open scene file");
+  } catch (const YAML::Exception& e) {
+    throw InputError(file + ":" + std::to_string(e.mark.line + 1) + ": YAML error: " + e.msg);
+  }
+  const Reader r(file);
+  r.only_keys(root, "", {"dictionary", "floor", "render", "cameras", "markers"});
+  Scene scene;
+  scene.dictionary = r.text(root, "", "dictionary", scene.dictionary);
+  try {
+    dictionary_id(scene.dictionary);
+  } catch (const InputError& e) {
+    r.fail(root["dictionary"], "dictionary", e.what());
+  }
+
+  if (const YAML::Node f = root["floor"]) {
+    r.only_keys(f, "floor.", {"size", "grey", "texture_contrast", "texture_scale", "seed"});
+    if (f["size"]) {
+      const auto s = r.numbers(f, "floor.", "size", 2, 2);
+      if (!(s[0] > 0 && s[1] > 0)) r.fail(f["size"], "floor.size", "must be positive");
+      scene.floor.size_x = s[0];
+      scene.floor.size_y = s[1];
+    }
+    scene.floor.grey = r.number(f, "floor.", "grey", scene.floor.grey);
+    scene.floor.texture_contrast = r.number(f, "floor.", "texture_contrast", scene.floor.texture_contrast);
+    scene.floor.texture_scale = r.number(f, "floor.", "texture_scale", scene.floor.texture_scale);
+    if (!(scene.floor.texture_scale > 0)) r.fail(f["texture_scale"], "floor.texture_scale", "must be > 0");
+    scene.floor.seed = static_cast<unsigned>(r.number(f, "floor.", "seed", scene.floor.seed));
+  }
+
+  if (const YAML::Node g = root["render"]) {
+    auto& s = scene.render;
+    r.only_keys(g, "render.", {"supersample", "noise_sigma", "jpeg_quality", "vignetting", "gradient",
+                               "exposure", "blur_samples", "white", "black", "seed"});
+    s.supersample = static_cast<int>(r.number(g, "render.", "supersample", s.supersample));
+    if (s.supersample < 1 || s.supersample > 8) r.fail(g["supersample"], "render.supersample", "must be 1..8");
+    s.noise_sigma = r.number(g, "render.", "noise_sigma", s.noise_sigma);
+    if (s.noise_sigma < 0 || s.noise_sigma > 50) r.fail(g["noise_sigma"], "render.noise_sigma", "must be 0..50");
+    s.jpeg_quality = static_cast<int>(r.number(g, "render.", "jpeg_quality", s.jpeg_quality));
+    if (s.jpeg_quality < 0 || s.jpeg_quality > 100) r.fail(g["jpeg_quality"], "render.jpeg_quality", "must be 0..100");
+    s.vignetting = r.number(g, "render.", "vignetting", s.vignetting);
+    if (s.vignetting < 0 || s.vignetting >= 1) r.fail(g["vignetting"], "render.vignetting", "must be in [0, 1)");
+    s.gradient = r.number(g, "render.", "gradient", s.gradient);
+    if (std::abs(s.gradient) >= 1) r.fail(g["gradient"], "render.gradient", "must be in (-1, 1)");
+    s.exposure = r.number(g, "render.", "exposure", s.exposure);
+    if (s.exposure < 0 || s.exposure > 1) r.fail(g["exposure"], "render.exposure", "must be 0..1 s");
+    s.blur_samples = static_cast<int>(r.number(g, "render.", "blur_samples", s.blur_samples));
+    if (s.blur_samples < 1 || s.blur_samples > 64) r.fail(g["blur_samples"], "render.blur_samples", "must be 1..64");
+    s.white = r.number(g, "render.", "white", s.white);
+    s.black = r.number(g, "render.", "black", s.black);
+    if (!(s.black >= 0 && s.white <= 255 && s.white > s.black + 20)) {
+      r.fail(g, "render.white/black", "need 0 <= black < white - 20 <= 235");
+    }
+    s.seed = static_cast<unsigned>(r.number(g, "render.", "seed", s.seed));
+  }
+
+  const YAML::Node cams = root["cameras"];
+  if (!cams || !cams.IsSequence() || cams.size() == 0) {
+    r.fail(cams ? cams : root, "cameras", "expected a non-empty list of cameras");
+  }
+  for (std::size_t i = 0; i < cams.size(); ++i) {
+    const YAML::Node c = cams[i];
+    const std::string p = "cameras[" + std::to_string(i) + "].";
+    r.only_keys(c, p, {"name", "intrinsics", "position", "rotation_deg"});
+    SceneCamera cam;
+    cam.name = r.text(c, p, "name", "");
+    if (cam.name.empty()) r.fail(c, p + "name", "missing");
+    for (const auto& other : scene.cameras) {
+      if (other.name == cam.name) r.fail(c["name"], p + "name", "duplicate camera name '" + cam.name + "'");
+    }
+    const std::string intr = r.text(c, p, "intrinsics", "");
+    if (intr.empty()) r.fail(c, p + "intrinsics", "missing");
+    cam.intrinsics_path = std::filesystem::path(intr).is_absolute() ? std::filesystem::path(intr)
+                                                                    : path.parent_path() / intr;
+    try {
+      cam.model = CameraModel::load(cam.intrinsics_path);
+    } catch (const InputError& e) {
+      r.fail(c["intrinsics"], p + "intrinsics", e.what());
+    }
+    const auto pos = r.numbers(c, p, "position", 2, 3);
+    cam.position = {pos[0], pos[1], pos.size() > 2 ? pos[2] : 2.1};
+    if (!(cam.position.z() > 0.3)) r.fail(c["position"], p + "position", "camera must be > 0.3 m above the floor");
+    std::vector<double> rot{0, 0, 0};
+    if (c["rotation_deg"]) rot = r.numbers(c, p, "rotation_deg", 3, 3);
+    cam.R_wc = orientation(rot[0] * kDeg, rot[1] * kDeg, rot[2] * kDeg);
+    scene.cameras.push_back(std::move(cam));
+  }
+
+  if (const YAML::Node ms = root["markers"]) {
+    if (!ms.IsSequence()) r.fail(ms, "markers", "expected a list");
+    for (std::size_t i = 0; i < ms.size(); ++i) {
+      const YAML::Node m = ms[i];
+      const std::string p = "markers[" + std::to_string(i) + "].";
+      r.only_keys(m, p, {"id", "length", "margin", "x", "y", "height", "yaw_deg", "trajectory"});
+      SceneMarker mk;
+      const double id = r.number(m, p, "id", 0, true);
+      if (id < 0 || id != std::floor(id)) r.fail(m["id"], p + "id", "must be a non-negative integer");
+      mk.id = static_cast<int>(id);
+      for (const auto& other : scene.markers) {
+        if (other.id == mk.id) r.fail(m["id"], p + "id", "duplicate marker id " + std::to_string(mk.id));
+      }
+      mk.length = r.number(m, p, "length", mk.length);
+      if (!(mk.length > 0.005 && mk.length < 5)) r.fail(m["length"], p + "length", "must be 0.005..5 m");
+      mk.margin = r.number(m, p, "margin", mk.margin);
+      mk.start.x = r.number(m, p, "x", 0, !m["trajectory"]);
+      mk.start.y = r.number(m, p, "y", 0, !m["trajectory"]);
+      mk.start.z = r.number(m, p, "height", 0.0);
+      if (mk.start.z < 0) r.fail(m["height"], p + "height", "must be >= 0");
+      mk.start.yaw = r.number(m, p, "yaw_deg", 0.0) * kDeg;
+      if (m["trajectory"]) mk.trajectory = read_trajectory(r, m["trajectory"], p + "trajectory.");
+      scene.markers.push_back(mk);
+    }
+  }
+  return scene;
+}
+
+MarkerPose Scene::marker_pose_at(std::size_t index, double t) const {
+  const SceneMarker& m = markers.at(index);
+  const Trajectory& tr = m.trajectory;
+  MarkerPose pose = m.start;
+  Eigen::Vector2d pos(pose.x, pose.y);
+  Eigen::Vector2d dir(1, 0);
+  const double s = tr.speed * t;
+  switch (tr.kind) {
+    case Trajectory::Kind::kStatic:
+      return pose;
+    case Trajectory::Kind::kCircle: {
+      const double sign = tr.clockwise ? -1.0 : 1.0;
+      const double a = sign * s / tr.radius;
+      pos = tr.center + tr.radius * Eigen::Vector2d(std::cos(a), std::sin(a));
+      dir = sign * Eigen::Vector2d(-std::sin(a), std::cos(a));
+      break;
+    }
+    case Trajectory::Kind::kLine:
+      // Back and forth: the closed polyline from -> to -> from.
+      along_polyline(tr.points, s, pos, dir);
+      break;
+    case Trajectory::Kind::kWaypoints:
+      along_polyline(tr.points, s, pos, dir);
+      break;
+  }
+  pose.x = pos.x();
+  pose.y = pos.y();
+  if (tr.heading_follows_path) pose.yaw = m.start.yaw + std::atan2(dir.y(), dir.x());
+  return pose;
+}
+
+MarkerPose Scene::marker_pose(int id, double t) const {
+  for (std::size_t i = 0; i < markers.size(); ++i) {
+    if (markers[i].id == id) return marker_pose_at(i, t);
+  }
+  throw std::out_of_range("scene has no marker with id " + std::to_string(id));
+}
+
+std::size_t Scene::camera_index(const std::string& name) const {
+  std::string names;
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    if (cameras[i].name == name) return i;
+    names += (names.empty() ? "" : ", ") + cameras[i].name;
+  }
+  throw InputError("scene has no camera '" + name + "' (cameras: " + names + ")");
+}
+
+}  // namespace ips::sim

@@ -1,0 +1,202 @@
+// Per-frame cost of the perception front end on rendered 1920x1080 JPEG (q90, 4:2:0 colour,
+// like a USB camera's MJPEG) frames with 0, 1 and 5 markers (20 cm, 2.1 m below the red
+// camera of the published layout): MJPEG decode, detection, locate; median and p95 over the
+// frames, single-threaded (cv::setNumThreads(1)). Two pipelines on the same frames:
+//   ours:      greyscale turbojpeg decode -> ips::Detector (downscaled detection, fewer
+//              threshold passes, full-resolution cornerSubPix) -> ips::locate_marker
+//   reference: the published sequence: cv::imdecode colour -> cvtColor grey -> detectMarkers
+//              with default parameters -> cornerSubPix (winSize 3x3) -> cv::fisheye::undistortPoints
+//              -> depth formula
+// Also reports detection agreement with the truth (markers found, corner error).
+// Usage: bench_perception [frames_per_case=40] [scene.yaml]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <opencv2/aruco.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ips/detector.h"
+#include "ips/jpeg_decoder.h"
+#include "ips/marker_geometry.h"
+#include "ips/sim/renderer.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+struct Stats {
+  std::vector<double> v;
+  void add(double x) { v.push_back(x); }
+  double pct(double p) const {
+    if (v.empty()) return 0;
+    std::vector<double> s = v;
+    std::sort(s.begin(), s.end());
+    return s[std::min(s.size() - 1, static_cast<std::size_t>(p * static_cast<double>(s.size() - 1) + 0.5))];
+  }
+};
+
+struct Case {
+  std::vector<std::vector<std::uint8_t>> jpegs;
+  std::vector<std::vector<ips::sim::MarkerTruth>> truth;
+};
+
+struct Result {
+  Stats decode, detect, locate, total;
+  int expected = 0, found = 0, extra = 0;
+  Stats corner_err;
+};
+
+void score(const std::vector<ips::MarkerDetection>& found, const std::vector<ips::sim::MarkerTruth>& truth,
+           Result& r) {
+  for (const auto& t : truth) {
+    ++r.expected;
+    for (const auto& d : found) {
+      if (d.id != t.id) continue;
+      ++r.found;
+      for (std::size_t i = 0; i < 4; ++i) {
+        r.corner_err.add(std::hypot(d.corners_px[i].x - t.corners_px[i].x, d.corners_px[i].y - t.corners_px[i].y));
+      }
+      break;
+    }
+  }
+  for (const auto& d : found) {
+    bool known = false;
+    for (const auto& t : truth) known = known || t.id == d.id;
+    r.extra += known ? 0 : 1;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int frames = argc > 1 ? std::max(5, std::atoi(argv[1])) : 40;
+  const std::string scene_path = argc > 2 ? argv[2] : std::string(IPS_SOURCE_DIR) + "/config/scenes/ou2023.yaml";
+  cv::setNumThreads(1);
+  ips::sim::Scene scene = ips::sim::Scene::load(scene_path);
+  scene.markers.clear();
+  scene.render.noise_sigma = 2.0;
+  ips::sim::CameraRenderer renderer(scene, scene.camera_index("red"));
+  const ips::CameraModel& cam = renderer.camera().model;
+  const auto& C = renderer.camera().position;
+
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> uni(0, 1);
+  std::printf("bench_perception: %d frames per case, 1920x1080 JPEG q90 4:2:0, red camera, single thread\n", frames);
+  std::printf("%-7s %-9s | %-17s | %-17s | %-17s | %-17s | found/expected extra | corner err px median/max\n",
+              "markers", "pipeline", "decode med/p95 ms", "detect med/p95", "locate med/p95", "total med/p95");
+  for (int n_markers : {0, 1, 5}) {
+    Case c;
+    for (int f = 0; f < frames; ++f) {
+      std::vector<ips::sim::PlacedMarker> placed;
+      std::vector<ips::sim::MarkerTruth> truth;
+      int tries = 0;
+      while (static_cast<int>(placed.size()) < n_markers && tries++ < 1000) {
+        ips::sim::SceneMarker m;
+        m.id = static_cast<int>(placed.size()) * 17 + f % 7;
+        m.length = 0.20;
+        const ips::sim::MarkerPose pose{C.x() + (uni(rng) - 0.5) * 2.6, C.y() + (uni(rng) - 0.5) * 1.4,
+                                        uni(rng) * 0.2, uni(rng) * 6.283};
+        bool clear = true;
+        for (const auto& p : placed) clear = clear && std::hypot(p.poses[0].x - pose.x, p.poses[0].y - pose.y) > 0.4;
+        const auto t = renderer.truth_of(m, pose);
+        if (!clear || !t.visible) continue;
+        placed.push_back({m, {pose}});
+        truth.push_back(t);
+      }
+      cv::Mat gray;
+      renderer.render_markers(placed, gray, static_cast<std::uint64_t>(f + 100 * n_markers));
+      c.jpegs.push_back(ips::sim::encode_jpeg(gray, 90, true));
+      c.truth.push_back(truth);
+    }
+
+    // Ours.
+    Result ours;
+    {
+      ips::JpegDecoder decoder;
+      ips::Detector detector;
+      cv::Mat gray;
+      for (std::size_t f = 0; f < c.jpegs.size(); ++f) {
+        auto t0 = Clock::now();
+        if (!decoder.decode_gray(c.jpegs[f], gray)) return 1;
+        const double t_dec = ms_since(t0);
+        t0 = Clock::now();
+        const auto found = detector.detect(gray, &cam);
+        const double t_det = ms_since(t0);
+        t0 = Clock::now();
+        double sink = 0;
+        for (const auto& d : found) sink += ips::locate_marker(d, cam, 0.2).p_cam.z();
+        const double t_loc = ms_since(t0);
+        if (sink < 0) std::printf(" ");
+        ours.decode.add(t_dec);
+        ours.detect.add(t_det);
+        ours.locate.add(t_loc);
+        ours.total.add(t_dec + t_det + t_loc);
+        score(found, c.truth[f], ours);
+      }
+    }
+    // Reference: the published sequence of calls.
+    Result ref;
+    {
+      auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_100);
+      auto params = cv::aruco::DetectorParameters::create();
+      const cv::Mat K(cam.K()), D(cam.D());
+      for (std::size_t f = 0; f < c.jpegs.size(); ++f) {
+        auto t0 = Clock::now();
+        const cv::Mat bgr = cv::imdecode(c.jpegs[f], cv::IMREAD_COLOR);
+        const double t_dec = ms_since(t0);
+        t0 = Clock::now();
+        cv::Mat gray;
+        cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+        std::vector<std::vector<cv::Point2f>> corners;
+        std::vector<int> ids;
+        cv::aruco::detectMarkers(gray, dict, corners, ids, params);
+        for (auto& q : corners) {
+          cv::cornerSubPix(gray, q, cv::Size(3, 3), cv::Size(-1, -1),
+                           cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 30, 0.001));
+        }
+        const double t_det = ms_since(t0);
+        t0 = Clock::now();
+        double sink = 0;
+        for (const auto& q : corners) {
+          std::vector<cv::Point2d> in(q.begin(), q.end()), out;
+          cv::fisheye::undistortPoints(in, out, K, D);
+          double per = 0;
+          for (int i = 0; i < 4; ++i) per += cv::norm(out[static_cast<std::size_t>((i + 1) % 4)] - out[static_cast<std::size_t>(i)]);
+          sink += 4 * 0.2 / per;
+        }
+        const double t_loc = ms_since(t0);
+        if (sink < 0) std::printf(" ");
+        ref.decode.add(t_dec);
+        ref.detect.add(t_det);
+        ref.locate.add(t_loc);
+        ref.total.add(t_dec + t_det + t_loc);
+        std::vector<ips::MarkerDetection> found;
+        for (std::size_t i = 0; i < ids.size(); ++i) {
+          ips::MarkerDetection d;
+          d.id = ids[i];
+          for (std::size_t k = 0; k < 4; ++k) d.corners_px[k] = {corners[i][k].x, corners[i][k].y};
+          found.push_back(d);
+        }
+        score(found, c.truth[f], ref);
+      }
+    }
+    for (const auto& [name, r] : {std::pair<const char*, const Result&>{"ours", ours}, {"reference", ref}}) {
+      std::printf("%-7d %-9s | %7.2f / %7.2f | %7.2f / %7.2f | %7.3f / %7.3f | %7.2f / %7.2f | %4d/%-4d %5d | %.3f / %.3f\n",
+                  n_markers, name, r.decode.pct(0.5), r.decode.pct(0.95), r.detect.pct(0.5), r.detect.pct(0.95),
+                  r.locate.pct(0.5), r.locate.pct(0.95), r.total.pct(0.5), r.total.pct(0.95), r.found, r.expected,
+                  r.extra, r.corner_err.pct(0.5), r.corner_err.pct(1.0));
+    }
+  }
+  return 0;
+}
