@@ -149,19 +149,20 @@ TEST_F(Cli, FitSelectedCamerasOfThePublishedDataAndEvalRefusesMissingOnes) {
 }
 
 TEST_F(Cli, CompareListsEveryMethodPerCamera) {
-  // The first 20 pairs of each camera of the published data (keeps the ASan run short).
+  // The first 20 pairs of the red camera of the published data (keeps the ASan run short).
   std::ifstream in(ips::test::train40_path());
   std::string line, text;
   std::map<std::string, int> count;
   std::getline(in, line);
   text = line + "\n";
   while (std::getline(in, line))
-    if (++count[line.substr(0, line.find(','))] <= 20) text += line + "\n";
+    if (line.rfind("red,", 0) == 0 && ++count["red"] <= 20) text += line + "\n";
   write("train20.csv", text);
   CommandResult r = run("compare --train " + path("train20.csv") + " --test " + path("train20.csv") + " --json");
   ASSERT_EQ(r.status, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
-  for (const char* cam : {"red", "white", "black"}) {
+  EXPECT_EQ(j["cameras"].size(), 1u);
+  for (const char* cam : {"red"}) {
     EXPECT_EQ(j["cameras"][cam]["pr"]["n"], 20) << cam;
     const auto& c = j["cameras"][cam];
     EXPECT_EQ(c.size(), 10u) << cam;  // every method but auto
