@@ -62,11 +62,13 @@ markers:
   }
 
   // A configuration for this test's directory; `extra` is appended verbatim.
+  static std::string synthetic(const std::string& name) {
+    return "  - {name: " + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(kFps) + "}\n";
+  }
   static std::string config(std::uint16_t port, const std::string& model, const std::string& method = "mean",
-                            const std::string& extra = "") {
+                            const std::string& extra = "", const std::string& cameras = "") {
     std::string c = "cameras:\n";
-    for (const char* name : {"red", "white", "black"})
-      c += std::string("  - {name: ") + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(kFps) + "}\n";
+    c += cameras.empty() ? synthetic("red") + synthetic("white") + synthetic("black") : cameras;
     c += "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n";
     c += "model_file: " + model + "\n";
     c += "fusion: {method: " + method + ", window: 0.02, max_wait: 0.5}\n";
@@ -187,6 +189,47 @@ TEST_F(IpsdTest, StreamMatchesTheSimulatorsTruthAndSurvivesABadReload) {
   EXPECT_EQ(*code, 0) << test::read_file(log);
   EXPECT_LT(stop_s, 2.0);
   EXPECT_NE(test::read_file(log).find("status red:"), std::string::npos) << "no periodic status line";
+}
+
+TEST_F(IpsdTest, AnAbsentCameraIsRetriedUnlessRequired) {
+  test::UdpReceiver rx;
+  const std::string absent = "  - {name: ghost, source: v4l2, device: /dev/ipsd-test-no-such-camera, intrinsics: " +
+                             std::string(IPS_TEST_DATA_DIR) + "/ou2023/intrinsics_red.yaml}\n";
+  // Not required: the daemon serves the other camera and reports the absent one as down.
+  const std::string c = config(rx.port, "model_ghost.json", "mean", "", synthetic("red") + absent);
+  // The model file needs an entry for every camera: give the ghost red's model.
+  auto model = nlohmann::json::parse(test::read_file(*dir_ / "model.json"));
+  ASSERT_TRUE(model["cameras"].is_object());
+  model["cameras"]["ghost"] = model["cameras"]["red"];
+  std::ofstream(*dir_ / "model_ghost.json") << model.dump();
+  const fs::path cfg = *dir_ / "ghost.yaml";
+  std::ofstream(cfg) << c;
+  const fs::path log = *dir_ / "ghost.log";
+  const pid_t pid = test::spawn({test::bin("ipsd"), "--config", cfg.string()}, log);
+  const auto got = receive(rx, 20.0, 3);
+  EXPECT_EQ(got.size(), 3u) << test::read_file(log);
+  const auto status = nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()), nullptr, false);
+  ASSERT_TRUE(status.is_object()) << test::read_file(log);
+  EXPECT_EQ(status["cameras"][0]["state"], "open");
+  EXPECT_EQ(status["cameras"][1]["state"], "down");
+  EXPECT_NE(status["cameras"][1]["last_error"].get<std::string>().find("ipsd-test-no-such-camera"), std::string::npos);
+  for (const auto& [d, arrival] : got)
+    for (const auto& m : d.markers) EXPECT_EQ(m.camera_mask, 1u);  // only red contributes
+  ::kill(pid, SIGTERM);
+  EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(5)), 0);
+  // One warning for the absent camera, not one per retry.
+  const std::string out = test::read_file(log);
+  std::size_t warnings = 0;
+  for (auto p = out.find("ghost: cannot open"); p != std::string::npos; p = out.find("ghost: cannot open", p + 1)) ++warnings;
+  EXPECT_EQ(warnings, 1u) << out;
+
+  // Required: the daemon refuses to start, exit status 1 (systemd restarts it later).
+  std::string required = c;
+  required.replace(required.find("/dev/ipsd-test-no-such-camera"), 29, "/dev/ipsd-test-no-such-camera, required: true");
+  ASSERT_NE(required.find("required: true"), std::string::npos);
+  std::ofstream(cfg) << required;
+  EXPECT_EQ(test::run({test::bin("ipsd"), "--config", cfg.string()}, log, std::chrono::seconds(20)), 1);
+  EXPECT_NE(test::read_file(log).find("ghost: required camera cannot be opened"), std::string::npos);
 }
 
 TEST_F(IpsdTest, MalformedConfigurationsAreRefusedWithExitStatus2) {
