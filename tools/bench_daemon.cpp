@@ -7,7 +7,7 @@
 //     as a percentage of one core; a synthetic camera's thread also renders and JPEG-encodes
 //     its frames, so "detect ms" (detect + locate + map per frame, from the daemon's status)
 //     is given apart;
-//   - frames per second and drops per camera.
+//   - frames per second, detect ms per frame, markers per frame and drops per camera.
 // Usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -226,12 +226,16 @@ int main(int argc, char** argv) {
       for (std::size_t i = 0; i < status["cameras"].size(); ++i) {
         const auto& c = status["cameras"][i];
         if ("cam:" + c.value("name", "") != name) continue;
-        // Frames and drops over the measured window; detect ms and markers over the daemon's last second.
+        // Everything over the measured window (differences of the daemon's cumulative counters).
         const auto& c0 = status0.is_object() ? status0["cameras"][i] : c;
         const auto frames = c.value("frames", 0ULL) - c0.value("frames", 0ULL);
         const auto drops = c.value("drops", 0ULL) - c0.value("drops", 0ULL);
+        const double detect_s = c.value("detect_s_total", 0.0) - c0.value("detect_s_total", 0.0);
+        const auto found = c.value("markers_total", 0ULL) - c0.value("markers_total", 0ULL);
+        const double per_frame = frames ? 1.0 / static_cast<double>(frames) : 0.0;
         std::printf("%-12s %8.1f %8.1f %10.1f %8.2f %8llu\n", name.c_str(), pct, static_cast<double>(frames) / wall,
-                    c.value("detect_ms", 0.0), c.value("markers", 0.0), static_cast<unsigned long long>(drops));
+                    1e3 * detect_s * per_frame, static_cast<double>(found) * per_frame,
+                    static_cast<unsigned long long>(drops));
       }
     } else {
       std::printf("%-12s %8.1f\n", name.c_str(), pct);
