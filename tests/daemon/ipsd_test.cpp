@@ -254,6 +254,59 @@ TEST_F(IpsdTest, AnAbsentCameraIsRetriedUnlessRequired) {
   EXPECT_NE(test::read_file(log).find("ghost: required camera cannot be opened"), std::string::npos);
 }
 
+// A unix datagram socket stands in for systemd's notify socket (NOTIFY_SOCKET, WATCHDOG_USEC).
+TEST_F(IpsdTest, NotifiesSystemdReadyStatusWatchdogAndStopping) {
+  const std::string path = (*dir_ / "notify.sock").string();
+  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+  ::unlink(path.c_str());
+  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  const fs::path cfg = *dir_ / "notify.yaml";
+  std::ofstream(cfg) << config(test::free_udp_port(), "model.json", "mean", "", synthetic("red"));
+  ::setenv("NOTIFY_SOCKET", path.c_str(), 1);
+  ::setenv("WATCHDOG_USEC", "1000000", 1);  // 1 s: pings every 0.5 s
+  const fs::path log = *dir_ / "notify.log";
+  const pid_t pid = test::spawn({test::bin("ipsd"), "--config", cfg.string()}, log);
+  ::unsetenv("NOTIFY_SOCKET");
+  ::unsetenv("WATCHDOG_USEC");
+  const test::ChildGuard guard(pid);
+
+  auto next_message = [&](double seconds) -> std::string {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, static_cast<int>(seconds * test::kTimeScale * 1000)) != 1) return "";
+    char buf[4096];
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    return n > 0 ? std::string(buf, static_cast<std::size_t>(n)) : "";
+  };
+  bool ready = false, status = false;
+  int watchdogs = 0;
+  for (int i = 0; i < 200 && !(ready && status && watchdogs >= 3); ++i) {
+    const std::string m = next_message(20.0);
+    if (m.empty()) break;
+    ready = ready || m.find("READY=1") != std::string::npos;
+    status = status || m.find("STATUS=red ") != std::string::npos;
+    if (m.find("WATCHDOG=1") != std::string::npos) {
+      EXPECT_TRUE(ready) << "watchdog before READY";
+      ++watchdogs;
+    }
+  }
+  EXPECT_TRUE(ready) << test::read_file(log);
+  EXPECT_TRUE(status);
+  EXPECT_GE(watchdogs, 3);
+  ::kill(pid, SIGTERM);
+  bool stopping = false;
+  for (int i = 0; i < 50 && !stopping; ++i) {
+    const std::string m = next_message(5.0);
+    if (m.empty()) break;
+    stopping = m.find("STOPPING=1") != std::string::npos;
+  }
+  EXPECT_TRUE(stopping);
+  EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(10)), 0);
+  ::close(fd);
+}
+
 TEST_F(IpsdTest, MalformedConfigurationsAreRefusedWithExitStatus2) {
   const std::uint16_t port = test::free_udp_port();
   const std::string good = config(port, "model.json");
