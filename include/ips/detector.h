@@ -45,7 +45,8 @@ struct DetectorOptions {
   /// marks a band along every dark/bright edge, which outlines markers of 40-200 px under
   /// smooth lighting gradients; add e.g. 19 for strongly uneven or very blurred images.
   std::vector<int> threshold_windows = {9};
-  /// Constant subtracted from the local mean in adaptive thresholding, grey levels (OpenCV default 7).
+  /// Constant subtracted from the local mean in adaptive thresholding, grey levels (OpenCV default
+  /// 7).
   double threshold_constant = 7.0;
   /// Smallest marker perimeter considered, full-resolution pixels (a 40 px marker has 160).
   double min_perimeter_px = 100.0;

@@ -7,22 +7,30 @@
 #include <opencv2/imgproc.hpp>
 
 #include "edge_refine.h"
-#include "verify.h"
 #include "ips/error.h"
+#include "verify.h"
 
 namespace ips {
 namespace {
 
 const std::vector<std::pair<const char*, int>>& dictionary_names() {
   static const std::vector<std::pair<const char*, int>> names = {
-      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},       {"DICT_4X4_100", cv::aruco::DICT_4X4_100},
-      {"DICT_4X4_250", cv::aruco::DICT_4X4_250},     {"DICT_4X4_1000", cv::aruco::DICT_4X4_1000},
-      {"DICT_5X5_50", cv::aruco::DICT_5X5_50},       {"DICT_5X5_100", cv::aruco::DICT_5X5_100},
-      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},     {"DICT_5X5_1000", cv::aruco::DICT_5X5_1000},
-      {"DICT_6X6_50", cv::aruco::DICT_6X6_50},       {"DICT_6X6_100", cv::aruco::DICT_6X6_100},
-      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},     {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
-      {"DICT_7X7_50", cv::aruco::DICT_7X7_50},       {"DICT_7X7_100", cv::aruco::DICT_7X7_100},
-      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},     {"DICT_7X7_1000", cv::aruco::DICT_7X7_1000},
+      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},
+      {"DICT_4X4_100", cv::aruco::DICT_4X4_100},
+      {"DICT_4X4_250", cv::aruco::DICT_4X4_250},
+      {"DICT_4X4_1000", cv::aruco::DICT_4X4_1000},
+      {"DICT_5X5_50", cv::aruco::DICT_5X5_50},
+      {"DICT_5X5_100", cv::aruco::DICT_5X5_100},
+      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},
+      {"DICT_5X5_1000", cv::aruco::DICT_5X5_1000},
+      {"DICT_6X6_50", cv::aruco::DICT_6X6_50},
+      {"DICT_6X6_100", cv::aruco::DICT_6X6_100},
+      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},
+      {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
+      {"DICT_7X7_50", cv::aruco::DICT_7X7_50},
+      {"DICT_7X7_100", cv::aruco::DICT_7X7_100},
+      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},
+      {"DICT_7X7_1000", cv::aruco::DICT_7X7_1000},
       {"DICT_ARUCO_ORIGINAL", cv::aruco::DICT_ARUCO_ORIGINAL},
       {"DICT_APRILTAG_16h5", cv::aruco::DICT_APRILTAG_16h5},
       {"DICT_APRILTAG_25h9", cv::aruco::DICT_APRILTAG_25h9},
@@ -63,7 +71,8 @@ Detector::Detector(const DetectorOptions& options) : impl_(std::make_unique<Impl
   if (o.threshold_windows.empty()) throw InputError("detector: threshold_windows is empty");
   for (int w : o.threshold_windows) {
     if (w < 3 || w % 2 == 0) {
-      throw InputError("detector: threshold window sizes must be odd and >= 3, got " + std::to_string(w));
+      throw InputError("detector: threshold window sizes must be odd and >= 3, got " +
+                       std::to_string(w));
     }
   }
   if (o.refine_half_window_px < 1) throw InputError("detector: refine_half_window_px must be >= 1");
@@ -133,8 +142,8 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraM
       for (std::size_t i = 0; i < d.ids.size(); ++i) {
         bool dup = false;
         for (std::size_t j = 0; j < all_ids.size(); ++j) {
-          dup = dup || (all_ids[j] == d.ids[i] &&
-                        cv::norm(all_corners[j][0] - d.corners[i][0]) < 3.0);
+          dup = dup ||
+                (all_ids[j] == d.ids[i] && cv::norm(all_corners[j][0] - d.corners[i][0]) < 3.0);
         }
         if (!dup) {
           all_ids.push_back(d.ids[i]);
@@ -191,8 +200,8 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraM
   // 4. Verify: every cell must read clearly black or white.
   if (o.max_ambiguous_cells >= 0) {
     std::erase_if(out, [&](const MarkerDetection& m) {
-      return detail::count_ambiguous_cells(gray, m.corners_px, cells, o.cell_ambiguity, o.min_contrast) >
-             o.max_ambiguous_cells;
+      return detail::count_ambiguous_cells(gray, m.corners_px, cells, o.cell_ambiguity,
+                                           o.min_contrast) > o.max_ambiguous_cells;
     });
   }
   return out;

@@ -11,10 +11,10 @@
 namespace ips::detail {
 
 struct EdgeRefineOptions {
-  double sample_step_px = 1.5;     ///< spacing of edge samples along each edge
-  double end_margin = 0.12;        ///< fraction of each edge left out at both ends (corner blur)
+  double sample_step_px = 1.5;       ///< spacing of edge samples along each edge
+  double end_margin = 0.12;          ///< fraction of each edge left out at both ends (corner blur)
   double max_profile_half_px = 3.0;  ///< half-length of the intensity profile across the edge
-  double max_shift_px = 4.0;       ///< a refined corner moving further than this is rejected
+  double max_shift_px = 4.0;         ///< a refined corner moving further than this is rejected
 };
 
 /// Refines the 4 corners of a marker (ArUco order, any accuracy better than ~1.5 px) by

@@ -23,7 +23,8 @@ double cell_mean(const cv::Mat& gray, const cv::Matx33d& H, double u, double v) 
       const double fx = x - x0, fy = y - y0;
       const auto* r0 = gray.ptr<std::uint8_t>(y0);
       const auto* r1 = gray.ptr<std::uint8_t>(y0 + 1);
-      sum += (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+      sum += (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
+             fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
       ++n;
     }
   }
@@ -35,7 +36,8 @@ double cell_mean(const cv::Mat& gray, const cv::Matx33d& H, double u, double v) 
 int count_ambiguous_cells(const cv::Mat& gray, const std::array<Point2, 4>& corners, int cells,
                           double ambiguity, double min_contrast) {
   // Marker coordinates: (0,0) top-left corner ... (cells, cells) bottom-right, in cells.
-  const std::vector<cv::Point2f> src{{0.f, 0.f}, {static_cast<float>(cells), 0.f},
+  const std::vector<cv::Point2f> src{{0.f, 0.f},
+                                     {static_cast<float>(cells), 0.f},
                                      {static_cast<float>(cells), static_cast<float>(cells)},
                                      {0.f, static_cast<float>(cells)}};
   std::vector<cv::Point2f> dst;
@@ -61,7 +63,8 @@ int count_ambiguous_cells(const cv::Mat& gray, const std::array<Point2, 4>& corn
     }
   }
   if (border.empty() || quiet.size() < 4) return cells * cells;
-  std::nth_element(border.begin(), border.begin() + static_cast<long>(border.size() / 2), border.end());
+  std::nth_element(border.begin(), border.begin() + static_cast<long>(border.size() / 2),
+                   border.end());
   std::nth_element(quiet.begin(), quiet.begin() + static_cast<long>(quiet.size() / 2), quiet.end());
   const double lo = border[border.size() / 2];
   const double hi = quiet[quiet.size() / 2];

@@ -24,83 +24,86 @@ nlohmann::json training_summary(const CalibData& data, const CalibSet& set, cons
     wmax = wmax.cwiseMax(set.world[i]);
   }
   auto arr = [](const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); };
-  const CameraErrors fit_errors = compare_points(predict_points(mapper, set.cam, set.world), set.world);
-  return {{"data", data.source},
-          {"n", set.cam.size()},
-          {"cam_min", arr(cmin)},
-          {"cam_max", arr(cmax)},
-          {"world_min", arr(wmin)},
-          {"world_max", arr(wmax)},
-          {"seed", options.seed},
-          {"fit_errors", errors_to_json(fit_errors)}};
+  const CameraErrors fit_errors =
+      compare_points(predict_points(mapper, set.cam, set.world), set.world);
+  return {{"data", data.source},    {"n", set.cam.size()},
+          {"cam_min", arr(cmin)},   {"cam_max", arr(cmax)},
+          {"world_min", arr(wmin)}, {"world_max", arr(wmax)},
+          {"seed", options.seed},   {"fit_errors", errors_to_json(fit_errors)}};
 }
 
 std::function<int()> setup(CLI::App& sub) {
-      struct Args {
-        std::string data, method, out, metric = "3d";
-        std::vector<std::string> cameras;
-        std::uint64_t seed = 1;
-        int folds = 10;
-      };
-      auto args = std::make_shared<Args>();
-      sub.add_option("--data", args->data, "calibration CSV (camera,xc,yc,zc,xw,yw,zw)")->required();
-      sub.add_option("--method", args->method,
-                     "rt|pr|rt+pr|ann|rt+ann|ki|rt+ki|kr|rt+kr|plane|auto")->required();
-      sub.add_option("--out", args->out, "model file to write (JSON)")->required();
-      sub.add_option("--camera", args->cameras, "fit only this camera (repeatable; default all)");
-      sub.add_option("--seed", args->seed, "seed of the stochastic fits (ann)")->capture_default_str();
-      sub.add_option("--metric", args->metric, "auto: pick by 3d or 2d CV error")->capture_default_str();
-      sub.add_option("--folds", args->folds, "auto: k of its k-fold cross-validation")->capture_default_str();
-      return [args] {
-        FitOptions options;
-        options.seed = args->seed;
-        options.metric = parse_metric(args->metric, "--metric");
-        options.folds = args->folds;
-        if (options.folds < 2) throw InputError("--folds: must be at least 2");
-        make_mapper(args->method);  // unknown name -> error before reading anything
-        const CalibData data = load_calib_csv(args->data);
-        std::vector<const CalibSet*> sets;
-        if (args->cameras.empty()) {
-          for (const auto& set : data.cameras) sets.push_back(&set);
-        } else {
-          for (const auto& camera : args->cameras) {
-            const CalibSet* set = &require_camera(data, camera);
-            if (std::find(sets.begin(), sets.end(), set) == sets.end()) sets.push_back(set);
-          }
-        }
-        // Check every camera before fitting anything, so a bad file fails fast.
-        for (const CalibSet* set : sets) {
-          const auto mapper = make_mapper(args->method);
-          if (set->cam.size() < mapper->min_points())
-            throw InputError(data.source + ":" + std::to_string(set->lines.back()) + ": camera '" +
-                             set->camera + "' has " + std::to_string(set->cam.size()) +
-                             " pairs; method '" + args->method + "' needs at least " +
-                             std::to_string(mapper->min_points()));
-        }
-        ModelSet models;
-        ErrorRows rows;
-        for (const CalibSet* set : sets) {
-          CameraModelEntry entry;
-          entry.mapper = make_mapper(args->method);
-          try {
-            entry.mapper->fit(set->cam, set->world, options);
-          } catch (const InputError& e) {
-            throw InputError(data.source + ": camera '" + set->camera + "': " + e.what());
-          }
-          entry.training = training_summary(data, *set, *entry.mapper, options);
-          rows.emplace_back(set->camera,
-                            compare_points(predict_points(*entry.mapper, set->cam, set->world), set->world));
-          models.cameras.emplace(set->camera, std::move(entry));
-        }
-        save_model_file(models, args->out);
-        std::printf("fitted '%s' on %s -> %s\ntraining-set errors (not a held-out estimate; use `ips cv`):\n",
-                    args->method.c_str(), data.source.c_str(), args->out.c_str());
-        print_error_table("camera", rows);
-        return 0;
-      };
+  struct Args {
+    std::string data, method, out, metric = "3d";
+    std::vector<std::string> cameras;
+    std::uint64_t seed = 1;
+    int folds = 10;
+  };
+  auto args = std::make_shared<Args>();
+  sub.add_option("--data", args->data, "calibration CSV (camera,xc,yc,zc,xw,yw,zw)")->required();
+  sub.add_option("--method", args->method, "rt|pr|rt+pr|ann|rt+ann|ki|rt+ki|kr|rt+kr|plane|auto")
+      ->required();
+  sub.add_option("--out", args->out, "model file to write (JSON)")->required();
+  sub.add_option("--camera", args->cameras, "fit only this camera (repeatable; default all)");
+  sub.add_option("--seed", args->seed, "seed of the stochastic fits (ann)")->capture_default_str();
+  sub.add_option("--metric", args->metric, "auto: pick by 3d or 2d CV error")
+      ->capture_default_str();
+  sub.add_option("--folds", args->folds, "auto: k of its k-fold cross-validation")
+      ->capture_default_str();
+  return [args] {
+    FitOptions options;
+    options.seed = args->seed;
+    options.metric = parse_metric(args->metric, "--metric");
+    options.folds = args->folds;
+    if (options.folds < 2) throw InputError("--folds: must be at least 2");
+    make_mapper(args->method);  // unknown name -> error before reading anything
+    const CalibData data = load_calib_csv(args->data);
+    std::vector<const CalibSet*> sets;
+    if (args->cameras.empty()) {
+      for (const auto& set : data.cameras) sets.push_back(&set);
+    } else {
+      for (const auto& camera : args->cameras) {
+        const CalibSet* set = &require_camera(data, camera);
+        if (std::find(sets.begin(), sets.end(), set) == sets.end()) sets.push_back(set);
+      }
+    }
+    // Check every camera before fitting anything, so a bad file fails fast.
+    for (const CalibSet* set : sets) {
+      const auto mapper = make_mapper(args->method);
+      if (set->cam.size() < mapper->min_points())
+        throw InputError(data.source + ":" + std::to_string(set->lines.back()) + ": camera '" +
+                         set->camera + "' has " + std::to_string(set->cam.size()) +
+                         " pairs; method '" + args->method + "' needs at least " +
+                         std::to_string(mapper->min_points()));
+    }
+    ModelSet models;
+    ErrorRows rows;
+    for (const CalibSet* set : sets) {
+      CameraModelEntry entry;
+      entry.mapper = make_mapper(args->method);
+      try {
+        entry.mapper->fit(set->cam, set->world, options);
+      } catch (const InputError& e) {
+        throw InputError(data.source + ": camera '" + set->camera + "': " + e.what());
+      }
+      entry.training = training_summary(data, *set, *entry.mapper, options);
+      rows.emplace_back(
+          set->camera,
+          compare_points(predict_points(*entry.mapper, set->cam, set->world), set->world));
+      models.cameras.emplace(set->camera, std::move(entry));
+    }
+    save_model_file(models, args->out);
+    std::printf(
+        "fitted '%s' on %s -> %s\ntraining-set errors (not a held-out estimate; use `ips cv`):\n",
+        args->method.c_str(), data.source.c_str(), args->out.c_str());
+    print_error_table("camera", rows);
+    return 0;
+  };
 }
 
-IPS_REGISTER_COMMAND("fit", "Fit a camera->world mapper per camera on calibration pairs and write the model file", setup);
+IPS_REGISTER_COMMAND(
+    "fit", "Fit a camera->world mapper per camera on calibration pairs and write the model file",
+    setup);
 
 }  // namespace
 }  // namespace ips::cli

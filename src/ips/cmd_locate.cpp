@@ -1,4 +1,5 @@
 // `ips locate`: detect the markers in one image and print their camera coordinates.
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <string>
@@ -12,6 +13,7 @@
 #include "ips/detector.h"
 #include "ips/error.h"
 #include "ips/marker_geometry.h"
+#include "ips/model_file.h"
 
 namespace {
 
@@ -21,6 +23,9 @@ struct LocateArgs {
   double marker_length = 0.20;
   std::vector<std::string> marker_sizes;  // "ID=LENGTH"
   std::string dictionary = "DICT_4X4_100";
+  std::string model;
+  std::string camera;
+  double height = 0.0;
   bool json = false;
 };
 
@@ -49,14 +54,27 @@ ips::MarkerSizes parse_sizes(const LocateArgs& a) {
 int run_locate(const LocateArgs& a) {
   const ips::MarkerSizes sizes = parse_sizes(a);
   const ips::CameraModel camera = ips::CameraModel::load(a.intrinsics);
+  ips::ModelSet models;
+  const ips::Mapper* mapper = nullptr;
+  if (!a.model.empty()) {
+    if (a.camera.empty())
+      throw ips::InputError("--model needs --camera NAME (the camera's entry in the model file)");
+    models = ips::load_model_file(a.model);
+    mapper = models.find(a.camera);
+    if (mapper == nullptr)
+      throw ips::InputError(a.model + ": no model for camera '" + a.camera + "'");
+  } else if (!a.camera.empty()) {
+    throw ips::InputError("--camera is only used with --model");
+  }
   ips::DetectorOptions options;
   options.dictionary = a.dictionary;
   ips::Detector detector(options);
   const cv::Mat gray = ips::cli::read_gray_image(a.image);
   if (gray.size() != camera.size()) {
-    throw ips::InputError(a.image + ": image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                          " but the intrinsics " + a.intrinsics + " are for " +
-                          std::to_string(camera.size().width) + "x" + std::to_string(camera.size().height));
+    throw ips::InputError(a.image + ": image is " + std::to_string(gray.cols) + "x" +
+                          std::to_string(gray.rows) + " but the intrinsics " + a.intrinsics +
+                          " are for " + std::to_string(camera.size().width) + "x" +
+                          std::to_string(camera.size().height));
   }
   const auto found = detector.detect(gray, &camera);
   nlohmann::json markers = nlohmann::json::array();
@@ -64,14 +82,23 @@ int run_locate(const LocateArgs& a) {
   for (const auto& d : found) {
     const auto o = ips::locate_marker(d, camera, sizes.length_of(d.id));
     if (!std::isfinite(o.p_cam.z())) continue;  // a corner outside the lens model
+    Eigen::Vector3d world = Eigen::Vector3d::Constant(std::nan(""));
+    if (mapper != nullptr)
+      world = mapper->predict(o.p_cam, mapper->needs_height() ? a.height : ips::Mapper::kNoHeight);
     if (a.json) {
       nlohmann::json corners = nlohmann::json::array();
       for (const auto& c : o.corners_px) corners.push_back({c.x, c.y});
-      markers.push_back({{"id", o.id}, {"corners", corners}, {"xc", o.p_cam.x()}, {"yc", o.p_cam.y()},
-                         {"zc", o.p_cam.z()}, {"yaw", o.yaw}, {"area", o.area_px}, {"length", o.edge_length}});
+      nlohmann::json m{{"id", o.id},        {"corners", corners},     {"xc", o.p_cam.x()},
+                       {"yc", o.p_cam.y()}, {"zc", o.p_cam.z()},      {"yaw", o.yaw},
+                       {"area", o.area_px}, {"length", o.edge_length}};
+      if (mapper != nullptr) m["world"] = {world.x(), world.y(), world.z()};
+      markers.push_back(m);
     } else {
-      std::printf("id %3d  xc %+.4f  yc %+.4f  zc %.4f m  yaw %+7.2f deg  area %8.1f px^2  corners",
-                  o.id, o.p_cam.x(), o.p_cam.y(), o.p_cam.z(), o.yaw * 180.0 / M_PI, o.area_px);
+      std::printf("id %3d  xc %+.4f  yc %+.4f  zc %.4f m  yaw %+7.2f deg  area %8.1f px^2", o.id,
+                  o.p_cam.x(), o.p_cam.y(), o.p_cam.z(), o.yaw * 180.0 / M_PI, o.area_px);
+      if (mapper != nullptr)
+        std::printf("  world %.4f %.4f %.4f m", world.x(), world.y(), world.z());
+      std::printf("  corners");
       for (const auto& c : o.corners_px) std::printf(" (%.2f, %.2f)", c.x, c.y);
       std::printf("\n");
     }
@@ -85,11 +112,19 @@ IPS_REGISTER_COMMAND(
     [](CLI::App& sub) -> std::function<int()> {
       auto a = std::make_shared<LocateArgs>();
       sub.add_option("--image", a->image, "Image file (JPEG, PNG, ...)")->required();
-      sub.add_option("--intrinsics", a->intrinsics, "Camera intrinsics (ipsd YAML or OpenCV calibration file)")
+      sub.add_option("--intrinsics", a->intrinsics,
+                     "Camera intrinsics (ipsd YAML or OpenCV calibration file)")
           ->required();
-      sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")->capture_default_str();
-      sub.add_option("--marker-size", a->marker_sizes, "Per-marker edge length ID=METRES (repeatable)");
+      sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")
+          ->capture_default_str();
+      sub.add_option("--marker-size", a->marker_sizes,
+                     "Per-marker edge length ID=METRES (repeatable)");
       sub.add_option("--dictionary", a->dictionary, "ArUco dictionary")->capture_default_str();
+      sub.add_option("--model", a->model, "Model file: also print world coordinates");
+      sub.add_option("--camera", a->camera, "The camera's name in the model file");
+      sub.add_option("--height", a->height,
+                     "Marker height for mappers that need it (plane), metres")
+          ->capture_default_str();
       sub.add_flag("--json", a->json, "Print JSON instead of text");
       return [a] { return run_locate(*a); };
     });

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <spdlog/spdlog.h>
 
 #include "command.h"
 #include "image_io.h"
@@ -48,7 +48,8 @@ struct CollectArgs {
   std::vector<std::string> cameras;
 };
 
-std::vector<std::size_t> selected_cameras(const Scene& scene, const std::vector<std::string>& names) {
+std::vector<std::size_t> selected_cameras(const Scene& scene,
+                                          const std::vector<std::string>& names) {
   std::vector<std::size_t> out;
   if (names.empty()) {
     for (std::size_t i = 0; i < scene.cameras.size(); ++i) out.push_back(i);
@@ -61,7 +62,8 @@ std::vector<std::size_t> selected_cameras(const Scene& scene, const std::vector<
 nlohmann::json truth_json(const ips::sim::MarkerTruth& t) {
   nlohmann::json corners = nlohmann::json::array();
   for (const auto& c : t.corners_px) corners.push_back({c.x, c.y});
-  nlohmann::json j{{"visible", t.visible}, {"corners", corners},
+  nlohmann::json j{{"visible", t.visible},
+                   {"corners", corners},
                    {"centre_cam", {t.centre_cam.x(), t.centre_cam.y(), t.centre_cam.z()}}};
   if (t.visible) {
     j["xc"] = t.formula.p_cam.x();
@@ -102,7 +104,8 @@ int run_render(const RenderArgs& a) {
     nlohmann::json markers = nlohmann::json::array();
     for (std::size_t i = 0; i < scene.markers.size(); ++i) {
       const auto p = scene.marker_pose_at(i, t);
-      markers.push_back({{"id", scene.markers[i].id}, {"length", scene.markers[i].length},
+      markers.push_back({{"id", scene.markers[i].id},
+                         {"length", scene.markers[i].length},
                          {"world", {{"x", p.x}, {"y", p.y}, {"z", p.z}, {"yaw", p.yaw}}},
                          {"cameras", nlohmann::json::object()}});
     }
@@ -115,10 +118,12 @@ int run_render(const RenderArgs& a) {
       ips::cli::write_file_atomically(fs::path(a.out) / file, bytes);
       frame["images"][name] = file;
       const auto truth = r->truth(t);
-      for (std::size_t i = 0; i < truth.size(); ++i) markers[i]["cameras"][name] = truth_json(truth[i]);
+      for (std::size_t i = 0; i < truth.size(); ++i)
+        markers[i]["cameras"][name] = truth_json(truth[i]);
     }
     frame["markers"] = markers;
-    ips::cli::write_file_atomically(fs::path(a.out) / (std::string("truth_") + stem + ".json"), frame.dump() + "\n");
+    ips::cli::write_file_atomically(fs::path(a.out) / (std::string("truth_") + stem + ".json"),
+                                    frame.dump() + "\n");
   }
   std::printf("wrote %d frame(s) x %zu camera(s) to %s\n", a.frames, cams.size(), a.out.c_str());
   return 0;
@@ -126,8 +131,10 @@ int run_render(const RenderArgs& a) {
 
 int run_collect(const CollectArgs& a) {
   if (a.points < 1) throw ips::InputError("--points must be >= 1");
-  if (!(a.tape_noise >= 0 && a.tape_noise < 0.5)) throw ips::InputError("--tape-noise must be in [0, 0.5) m");
-  if (!(a.max_height >= 0 && a.max_height < 1.5)) throw ips::InputError("--max-height must be in [0, 1.5) m");
+  if (!(a.tape_noise >= 0 && a.tape_noise < 0.5))
+    throw ips::InputError("--tape-noise must be in [0, 0.5) m");
+  if (!(a.max_height >= 0 && a.max_height < 1.5))
+    throw ips::InputError("--max-height must be in [0, 1.5) m");
   if (!(a.marker_length > 0.01)) throw ips::InputError("--marker-length must be > 0.01 m");
   const Scene scene = Scene::load(a.scene);
   const auto cams = selected_cameras(scene, a.cameras);
@@ -149,21 +156,22 @@ int run_collect(const CollectArgs& a) {
     int got = 0, missed = 0;
     while (got < a.points) {
       if (missed > 20 * a.points + 100) {
-        throw std::runtime_error("camera " + name + ": the marker was not detected in " + std::to_string(missed) +
-                                 " placements; check the scene");
+        throw std::runtime_error("camera " + name + ": the marker was not detected in " +
+                                 std::to_string(missed) + " placements; check the scene");
       }
       // A random place on the floor, a random height and heading, as a person would put it.
       ips::sim::SceneMarker m;
       m.id = 0;
       m.length = a.marker_length;
       const ips::sim::MarkerPose pose{0.1 + u(rng) * (scene.floor.size_x - 0.2),
-                                      0.1 + u(rng) * (scene.floor.size_y - 0.2), u(rng) * a.max_height,
-                                      u(rng) * 2 * M_PI};
+                                      0.1 + u(rng) * (scene.floor.size_y - 0.2),
+                                      u(rng) * a.max_height, u(rng) * 2 * M_PI};
       if (!r.truth_of(m, pose).visible) continue;  // not in this camera's view
       r.render_markers({{m, {pose}}}, gray, frame++);
       const cv::Mat* image = &gray;
       if (scene.render.jpeg_quality > 0) {
-        if (!decoder.decode_gray(ips::sim::encode_jpeg(gray, scene.render.jpeg_quality, true), decoded)) {
+        if (!decoder.decode_gray(ips::sim::encode_jpeg(gray, scene.render.jpeg_quality, true),
+                                 decoded)) {
           throw std::runtime_error("JPEG round trip failed: " + decoder.error());
         }
         image = &decoded;
@@ -181,10 +189,13 @@ int run_collect(const CollectArgs& a) {
         continue;
       }
       csv << name << ',' << o.p_cam.x() << ',' << o.p_cam.y() << ',' << o.p_cam.z() << ','
-          << pose.x + tape(rng) << ',' << pose.y + tape(rng) << ',' << std::max(0.0, pose.z + tape(rng)) << '\n';
+          << pose.x + tape(rng) << ',' << pose.y + tape(rng) << ','
+          << std::max(0.0, pose.z + tape(rng)) << '\n';
       ++got;
     }
-    if (missed > 0) spdlog::warn("{}: marker not detected in {} of {} placements (skipped)", name, missed, missed + got);
+    if (missed > 0)
+      spdlog::warn("{}: marker not detected in {} of {} placements (skipped)", name, missed,
+                   missed + got);
   }
   ips::cli::write_file_atomically(a.out, csv.str());
   std::printf("wrote %d pairs x %zu camera(s) to %s\n", a.points, cams.size(), a.out.c_str());
@@ -192,37 +203,45 @@ int run_collect(const CollectArgs& a) {
 }
 
 std::function<int()> setup_sim(CLI::App& sub) {
-      sub.require_subcommand(1);
-      auto r = std::make_shared<RenderArgs>();
-      CLI::App* render = sub.add_subcommand("render", "Render every camera's frames plus a ground-truth JSON per frame");
-      render->add_option("--scene", r->scene, "Scene YAML file")->required();
-      render->add_option("--out", r->out, "Output directory (created)")->required();
-      render->add_option("--frames", r->frames, "Number of frames")->capture_default_str();
-      render->add_option("--fps", r->fps, "Frame rate: frame k is at scene time k / fps")->capture_default_str();
-      render->add_option("--camera", r->cameras, "Only these cameras (repeatable; default all)");
+  sub.require_subcommand(1);
+  auto r = std::make_shared<RenderArgs>();
+  CLI::App* render = sub.add_subcommand(
+      "render", "Render every camera's frames plus a ground-truth JSON per frame");
+  render->add_option("--scene", r->scene, "Scene YAML file")->required();
+  render->add_option("--out", r->out, "Output directory (created)")->required();
+  render->add_option("--frames", r->frames, "Number of frames")->capture_default_str();
+  render->add_option("--fps", r->fps, "Frame rate: frame k is at scene time k / fps")
+      ->capture_default_str();
+  render->add_option("--camera", r->cameras, "Only these cameras (repeatable; default all)");
 
-      auto c = std::make_shared<CollectArgs>();
-      CLI::App* collect = sub.add_subcommand(
-          "collect", "Reproduce the calibration procedure: one marker at N random places per camera -> pairs CSV");
-      collect->add_option("--scene", c->scene, "Scene YAML file")->required();
-      collect->add_option("--points", c->points, "Pairs per camera")->capture_default_str();
-      collect->add_option("--out", c->out, "Output CSV (camera,xc,yc,zc,xw,yw,zw)")->required();
-      collect->add_option("--tape-noise", c->tape_noise, "Std-dev of the hand measurement of xw, yw, zw, metres")
-          ->capture_default_str();
-      collect->add_option("--max-height", c->max_height, "Marker heights drawn from [0, this], metres")
-          ->capture_default_str();
-      collect->add_option("--marker-length", c->marker_length, "Marker edge length, metres")->capture_default_str();
-      collect->add_option("--seed", c->seed, "Random seed (placements and tape noise)")->capture_default_str();
-      collect->add_option("--camera", c->cameras, "Only these cameras (repeatable; default all)");
+  auto c = std::make_shared<CollectArgs>();
+  CLI::App* collect = sub.add_subcommand(
+      "collect",
+      "Reproduce the calibration procedure: one marker at N random places per camera -> pairs CSV");
+  collect->add_option("--scene", c->scene, "Scene YAML file")->required();
+  collect->add_option("--points", c->points, "Pairs per camera")->capture_default_str();
+  collect->add_option("--out", c->out, "Output CSV (camera,xc,yc,zc,xw,yw,zw)")->required();
+  collect
+      ->add_option("--tape-noise", c->tape_noise,
+                   "Std-dev of the hand measurement of xw, yw, zw, metres")
+      ->capture_default_str();
+  collect->add_option("--max-height", c->max_height, "Marker heights drawn from [0, this], metres")
+      ->capture_default_str();
+  collect->add_option("--marker-length", c->marker_length, "Marker edge length, metres")
+      ->capture_default_str();
+  collect->add_option("--seed", c->seed, "Random seed (placements and tape noise)")
+      ->capture_default_str();
+  collect->add_option("--camera", c->cameras, "Only these cameras (repeatable; default all)");
 
-      return [render, collect, r, c]() -> int {
-        if (render->parsed()) return run_render(*r);
-        if (collect->parsed()) return run_collect(*c);
-        return 2;
-      };
+  return [render, collect, r, c]() -> int {
+    if (render->parsed()) return run_render(*r);
+    if (collect->parsed()) return run_collect(*c);
+    return 2;
+  };
 }
 
-IPS_REGISTER_COMMAND("sim", "Simulated cameras: render frames with ground truth, collect calibration pairs",
-                     setup_sim);
+IPS_REGISTER_COMMAND(
+    "sim", "Simulated cameras: render frames with ground truth, collect calibration pairs",
+    setup_sim);
 
 }  // namespace

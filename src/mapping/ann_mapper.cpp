@@ -97,7 +97,8 @@ class AnnMapper final : public Mapper {
       for (std::size_t i = 0; i < m; ++i)
         yn[static_cast<Eigen::Index>(i)] = (world[i][k] - out_offset_[k]) * out_scale_[k] - 1.0;
       const double decay = std::sqrt(kDecay);
-      const ResidualFunction f = [&](const Eigen::VectorXd& p, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
+      const ResidualFunction f = [&](const Eigen::VectorXd& p, Eigen::VectorXd& r,
+                                     Eigen::MatrixXd* J) {
         r.resize(static_cast<Eigen::Index>(m) + np);
         if (J != nullptr) J->setZero(static_cast<Eigen::Index>(m) + np, np);
         std::array<double, 5 * 16 + 1> row{};

@@ -52,7 +52,8 @@ class AutoMapper final : public Mapper {
         best_name = name;
       }
     }
-    if (best_name.empty()) throw InputError("auto: no method could be cross-validated on these pairs");
+    if (best_name.empty())
+      throw InputError("auto: no method could be cross-validated on these pairs");
     auto chosen = make_mapper(best_name);
     chosen->fit(cam, world, options);
     chosen_ = std::move(chosen);

@@ -19,7 +19,8 @@ constexpr std::array<std::string_view, 7> kRequired = {"camera", "xc", "yc", "zc
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -43,8 +44,8 @@ std::string where(const std::string& name, std::size_t line) {
 
 double parse_number(std::string_view text, const std::string& at, std::string_view column,
                     std::size_t column_index) {
-  const std::string col = "column '" + std::string(column) + "' (" +
-                          std::to_string(column_index + 1) + ")";
+  const std::string col =
+      "column '" + std::string(column) + "' (" + std::to_string(column_index + 1) + ")";
   if (text.empty()) throw InputError(at + ": " + col + ": empty value");
   std::string_view digits = text;
   if (digits.front() == '+') digits.remove_prefix(1);
@@ -87,8 +88,9 @@ CalibData parse_calib_csv(std::istream& in, const std::string& name) {
     for (auto field : split(line)) header.emplace_back(field);
     break;
   }
-  if (header.empty()) throw InputError(name + ": empty file (expected a header line " +
-                                       "'camera,xc,yc,zc,xw,yw,zw')");
+  if (header.empty())
+    throw InputError(name + ": empty file (expected a header line " +
+                     "'camera,xc,yc,zc,xw,yw,zw')");
   const std::size_t header_line = line_no;
   std::map<std::string, std::size_t> index;
   for (std::size_t i = 0; i < header.size(); ++i) {

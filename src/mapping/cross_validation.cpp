@@ -6,7 +6,8 @@
 namespace ips {
 
 std::vector<int> fold_assignment(std::size_t n, int folds) {
-  if (folds < 2) throw InputError("cross-validation needs at least 2 folds, got " + std::to_string(folds));
+  if (folds < 2)
+    throw InputError("cross-validation needs at least 2 folds, got " + std::to_string(folds));
   const std::size_t k = std::min(static_cast<std::size_t>(folds), n);
   std::vector<int> fold(n);
   for (std::size_t i = 0; i < n; ++i) fold[i] = static_cast<int>(i % k);
@@ -35,8 +36,8 @@ std::vector<Eigen::Vector3d> cross_validated_predictions(const std::string& meth
     auto mapper = make_mapper(method);
     if (tc.size() < mapper->min_points())
       throw InputError("method '" + method + "' needs at least " +
-                       std::to_string(mapper->min_points()) + " training pairs per fold, a fold has " +
-                       std::to_string(tc.size()));
+                       std::to_string(mapper->min_points()) +
+                       " training pairs per fold, a fold has " + std::to_string(tc.size()));
     mapper->fit(tc, tw, options);
     for (std::size_t i = 0; i < cam.size(); ++i)
       if (fold[i] == f) predicted[i] = mapper->predict(cam[i], world[i].z());
@@ -51,7 +52,8 @@ CameraErrors cross_validate(const std::string& method, std::span<const Eigen::Ve
   return compare_points(predicted, world);
 }
 
-std::vector<Eigen::Vector3d> predict_points(const Mapper& mapper, std::span<const Eigen::Vector3d> cam,
+std::vector<Eigen::Vector3d> predict_points(const Mapper& mapper,
+                                            std::span<const Eigen::Vector3d> cam,
                                             std::span<const Eigen::Vector3d> world) {
   std::vector<Eigen::Vector3d> predicted(cam.size());
   for (std::size_t i = 0; i < cam.size(); ++i) predicted[i] = mapper.predict(cam[i], world[i].z());

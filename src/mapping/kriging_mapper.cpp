@@ -43,10 +43,10 @@ constexpr int kTrend = 4;
 constexpr bool kJointOutputs = false;  // 1, s1, s2, s3
 
 struct Problem {
-  const Eigen::MatrixXd* S = nullptr;             // m x 3, normalised inputs
-  std::array<Eigen::MatrixXd, 3> D2;              // squared differences per dimension
-  Eigen::MatrixXd F;                              // m x 4 trend regressors
-  Eigen::MatrixXd Y;                              // normalised outputs fitted together (m x q)
+  const Eigen::MatrixXd* S = nullptr;  // m x 3, normalised inputs
+  std::array<Eigen::MatrixXd, 3> D2;   // squared differences per dimension
+  Eigen::MatrixXd F;                   // m x 4 trend regressors
+  Eigen::MatrixXd Y;                   // normalised outputs fitted together (m x q)
   bool regression = false;
   double min_nugget = 0.0;
 };
@@ -159,8 +159,9 @@ class KrigingMapper final : public Mapper {
     }
     // Groups of outputs that share one theta: each output alone, or (DACE with a 3-column Y)
     // all three together.
-    const std::vector<std::vector<int>> groups =
-        kJointOutputs ? std::vector<std::vector<int>>{{0, 1, 2}} : std::vector<std::vector<int>>{{0}, {1}, {2}};
+    const std::vector<std::vector<int>> groups = kJointOutputs
+                                                     ? std::vector<std::vector<int>>{{0, 1, 2}}
+                                                     : std::vector<std::vector<int>>{{0}, {1}, {2}};
     for (const auto& group : groups) {
       pb.Y.resize(m, static_cast<Eigen::Index>(group.size()));
       for (std::size_t g = 0; g < group.size(); ++g) {
@@ -184,14 +185,16 @@ class KrigingMapper final : public Mapper {
         }
       }
       if (tracker.best_x.empty() || tracker.best >= 1e299)
-        throw InputError(method() + ": the correlation matrix is singular for every theta "
+        throw InputError(method() +
+                         ": the correlation matrix is singular for every theta "
                          "(duplicate or degenerate points)");
       Solution sol;
       objective(pb, tracker.best_x.data(), &sol);
       for (std::size_t g = 0; g < group.size(); ++g) {
         auto& out = outputs_[static_cast<std::size_t>(group[g])];
-        out.theta = Eigen::Vector3d(std::pow(10.0, tracker.best_x[0]), std::pow(10.0, tracker.best_x[1]),
-                                    std::pow(10.0, tracker.best_x[2]));
+        out.theta =
+            Eigen::Vector3d(std::pow(10.0, tracker.best_x[0]), std::pow(10.0, tracker.best_x[1]),
+                            std::pow(10.0, tracker.best_x[2]));
         out.log10_nugget = regression_ ? tracker.best_x[3] : std::log10(pb.min_nugget);
         out.beta = sol.beta.col(static_cast<Eigen::Index>(g));
         out.gamma = sol.gamma.col(static_cast<Eigen::Index>(g));
@@ -208,7 +211,8 @@ class KrigingMapper final : public Mapper {
       double y = o.beta[0] + o.beta[1] * s[0] + o.beta[2] * s[1] + o.beta[3] * s[2];
       for (Eigen::Index i = 0; i < m; ++i) {
         const double d0 = s[0] - S_(i, 0), d1 = s[1] - S_(i, 1), d2 = s[2] - S_(i, 2);
-        y += o.gamma[i] * std::exp(-(o.theta[0] * d0 * d0 + o.theta[1] * d1 * d1 + o.theta[2] * d2 * d2));
+        y += o.gamma[i] *
+             std::exp(-(o.theta[0] * d0 * d0 + o.theta[1] * d1 * d1 + o.theta[2] * d2 * d2));
       }
       out[k] = y * y_std_[k] + y_mean_[k];
     }
@@ -222,10 +226,14 @@ class KrigingMapper final : public Mapper {
                       {"log10_nugget", o.log10_nugget},
                       {"beta", to_json_array(o.beta)},
                       {"gamma", to_json_array(o.gamma)}});
-    return {{"trend", "regpoly1"},       {"correlation", "gauss"},
-            {"x_mean", to_json_array(x_mean_)}, {"x_std", to_json_array(x_std_)},
-            {"y_mean", to_json_array(y_mean_)}, {"y_std", to_json_array(y_std_)},
-            {"sites", to_json_rows(S_)},  {"outputs", outs}};
+    return {{"trend", "regpoly1"},
+            {"correlation", "gauss"},
+            {"x_mean", to_json_array(x_mean_)},
+            {"x_std", to_json_array(x_std_)},
+            {"y_mean", to_json_array(y_mean_)},
+            {"y_std", to_json_array(y_std_)},
+            {"sites", to_json_rows(S_)},
+            {"outputs", outs}};
   }
 
   void from_json(const nlohmann::json& p) override {

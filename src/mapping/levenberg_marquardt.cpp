@@ -7,7 +7,8 @@
 
 namespace ips::mapping {
 
-LmResult levenberg_marquardt(const ResidualFunction& f, Eigen::VectorXd p, const LmOptions& options) {
+LmResult levenberg_marquardt(const ResidualFunction& f, Eigen::VectorXd p,
+                             const LmOptions& options) {
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   f(p, r, &J);

@@ -10,13 +10,13 @@
 
 namespace ips::mapping {
 
-std::unique_ptr<Mapper> make_rigid();                       ///< "rt"
-std::unique_ptr<Mapper> make_polynomial();                  ///< "pr"
-std::unique_ptr<Mapper> make_ann();                         ///< "ann"
-std::unique_ptr<Mapper> make_kriging(bool regression);      ///< "ki" / "kr"
+std::unique_ptr<Mapper> make_rigid();                                 ///< "rt"
+std::unique_ptr<Mapper> make_polynomial();                            ///< "pr"
+std::unique_ptr<Mapper> make_ann();                                   ///< "ann"
+std::unique_ptr<Mapper> make_kriging(bool regression);                ///< "ki" / "kr"
 std::unique_ptr<Mapper> make_chained(std::unique_ptr<Mapper> inner);  ///< "rt+<inner>"
-std::unique_ptr<Mapper> make_plane();                       ///< "plane"
-std::unique_ptr<Mapper> make_auto();                        ///< "auto"
+std::unique_ptr<Mapper> make_plane();                                 ///< "plane"
+std::unique_ptr<Mapper> make_auto();                                  ///< "auto"
 
 /// Kabsch: the rotation R (det +1) and translation t minimising sum |R a_i + t - b_i|^2.
 /// Throws ips::InputError if the points are (nearly) collinear.

@@ -2,10 +2,10 @@
 //                  "cameras": {"<name>": {"method", "params", "training"}}}.
 #include "ips/model_file.h"
 
+#include <unistd.h>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
-#include <unistd.h>
 
 #include "ips/error.h"
 
@@ -40,7 +40,8 @@ ModelSet load_model_file(const std::filesystem::path& path) {
     throw InputError(name + ": model file has no integer \"version\"");
   if (doc["version"].get<long long>() != kVersion)
     throw InputError(name + ": model file version " + doc["version"].dump() +
-                     " is not supported (this build reads version " + std::to_string(kVersion) + ")");
+                     " is not supported (this build reads version " + std::to_string(kVersion) +
+                     ")");
   if (!doc.contains("cameras") || !doc["cameras"].is_object() || doc["cameras"].empty())
     throw InputError(name + ": \"cameras\" must be a non-empty object");
 

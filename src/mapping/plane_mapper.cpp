@@ -51,8 +51,8 @@ Pose pose_from_params(const Pose& base, const Eigen::VectorXd& p, int radial_ter
   Pose pose;
   const Eigen::Vector3d w = p.head<3>();
   const double angle = w.norm();
-  const Eigen::Matrix3d dR =
-      angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d dR = angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
+                                         : Eigen::Matrix3d::Identity();
   pose.R = base.R * dR;
   pose.t = base.t + p.segment<3>(3);
   pose.k1 = radial_terms >= 1 ? p[6] : 0.0;
@@ -72,7 +72,8 @@ Pose fit_pose(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vecto
       const auto& w = world[static_cast<std::size_t>(i)];
       const Eigen::Vector2d xy = intersect(pose, cam[static_cast<std::size_t>(i)], w.z());
       // A ray that misses the plane costs a large finite residual so LM backs off.
-      r.segment<2>(2 * i) = xy.allFinite() ? Eigen::Vector2d(xy - w.head<2>()) : Eigen::Vector2d(1e3, 1e3);
+      r.segment<2>(2 * i) =
+          xy.allFinite() ? Eigen::Vector2d(xy - w.head<2>()) : Eigen::Vector2d(1e3, 1e3);
     }
   };
   const ResidualFunction with_jacobian = [&](const Eigen::VectorXd& p, Eigen::VectorXd& r,
@@ -88,8 +89,8 @@ Pose fit_pose(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vecto
   return pose_from_params(base, res.params, radial_terms);
 }
 
-double cv_mean_error_2d(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
-                        int radial_terms) {
+double cv_mean_error_2d(std::span<const Eigen::Vector3d> cam,
+                        std::span<const Eigen::Vector3d> world, int radial_terms) {
   const auto fold = fold_assignment(cam.size(), kSelectionFolds);
   double sum = 0.0;
   for (int k = 0; k < kSelectionFolds; ++k) {
@@ -138,8 +139,9 @@ class PlaneMapper final : public Mapper {
 
   Eigen::Vector3d predict(const Eigen::Vector3d& cam, double known_height) const override {
     if (!std::isfinite(known_height))
-      throw InputError("plane: the marker height is needed (the mapper intersects the camera "
-                       "ray with the plane z = height)");
+      throw InputError(
+          "plane: the marker height is needed (the mapper intersects the camera "
+          "ray with the plane z = height)");
     const Eigen::Vector2d xy = intersect(pose_, cam, known_height);
     return Eigen::Vector3d(xy.x(), xy.y(), known_height);
   }

@@ -60,7 +60,9 @@ class RigidMapper final : public Mapper {
     kabsch(cam, world, R_, t_);
   }
 
-  Eigen::Vector3d predict(const Eigen::Vector3d& cam, double) const override { return R_ * cam + t_; }
+  Eigen::Vector3d predict(const Eigen::Vector3d& cam, double) const override {
+    return R_ * cam + t_;
+  }
 
   nlohmann::json to_json() const override {
     return {{"R", to_json_rows(R_)}, {"t", to_json_array(t_)}};

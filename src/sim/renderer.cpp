@@ -2,7 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <random>
+#include <tuple>
 
 #include <turbojpeg.h>
 
@@ -52,8 +57,9 @@ class FloorTexture {
       const int x0 = static_cast<int>(gx), y0 = static_cast<int>(gy);
       const double fx = gx - x0, fy = gy - y0;
       const cv::Mat& g = grids_[o];
-      const double val = (1 - fy) * ((1 - fx) * g.at<float>(y0, x0) + fx * g.at<float>(y0, x0 + 1)) +
-                         fy * ((1 - fx) * g.at<float>(y0 + 1, x0) + fx * g.at<float>(y0 + 1, x0 + 1));
+      const double val =
+          (1 - fy) * ((1 - fx) * g.at<float>(y0, x0) + fx * g.at<float>(y0, x0 + 1)) +
+          fy * ((1 - fx) * g.at<float>(y0 + 1, x0) + fx * g.at<float>(y0 + 1, x0 + 1));
       v += (o == 0 ? 0.8 : 0.4) * val;
     }
     return f_.grey + f_.texture_contrast * v;
@@ -64,6 +70,57 @@ class FloorTexture {
   cv::Mat grids_[2];
   double cells_[2] = {1, 1};
 };
+
+// The ray map and the noise pool depend only on the camera (resp. the noise settings) and
+// take ~1 s to build at 1080p, so they are built once per process and shared by every
+// renderer of the same camera (several sources of one scene, repeated tests).
+std::shared_ptr<const cv::Mat> ray_map(const CameraModel& model) {
+  char key[512];
+  std::snprintf(key, sizeof key, "%d %dx%d K %.17g %.17g %.17g %.17g %.17g D",
+                static_cast<int>(model.kind()), model.size().width, model.size().height,
+                model.K()(0, 0), model.K()(0, 1), model.K()(0, 2), model.K()(1, 1),
+                model.K()(1, 2));
+  std::string k = key;
+  for (double d : model.D()) {
+    std::snprintf(key, sizeof key, " %.17g", d);
+    k += key;
+  }
+  static std::mutex mutex;
+  static std::map<std::string, std::shared_ptr<const cv::Mat>> cache;
+  const std::lock_guard lock(mutex);
+  if (auto it = cache.find(k); it != cache.end()) return it->second;
+  auto uv = std::make_shared<cv::Mat>(model.size(), CV_32FC2);
+  cv::parallel_for_(cv::Range(0, model.size().height), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      auto* row = uv->ptr<cv::Vec2f>(y);
+      for (int x = 0; x < model.size().width; ++x) {
+        const Point2 n = model.undistort({static_cast<double>(x), static_cast<double>(y)});
+        row[x] = std::isnan(n.x) ? cv::Vec2f(kNaNf, kNaNf)
+                                 : cv::Vec2f(static_cast<float>(n.x), static_cast<float>(n.y));
+      }
+    }
+  });
+  cache.emplace(k, uv);
+  return uv;
+}
+
+std::shared_ptr<const std::vector<std::int8_t>> noise_pool(double sigma, unsigned seed,
+                                                           std::size_t size) {
+  static std::mutex mutex;
+  static std::map<std::tuple<double, unsigned, std::size_t>,
+                  std::shared_ptr<const std::vector<std::int8_t>>>
+      cache;
+  const std::lock_guard lock(mutex);
+  const auto key = std::make_tuple(sigma, seed, size);
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> normal(0.0f, static_cast<float>(sigma));
+  auto pool = std::make_shared<std::vector<std::int8_t>>(size);
+  for (auto& v : *pool)
+    v = static_cast<std::int8_t>(std::clamp(std::lround(normal(rng)), -127L, 127L));
+  cache.emplace(key, pool);
+  return pool;
+}
 
 }  // namespace
 
@@ -85,7 +142,7 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
   const SceneCamera& cam = camera();
   width_ = cam.model.size().width;
   height_ = cam.model.size().height;
-  uv_.create(height_, width_, CV_32FC2);
+  uv_ = ray_map(cam.model);
   gain_.create(height_, width_, CV_32F);
   background_.create(height_, width_, CV_8U);
   const FloorTexture texture(scene.floor);
@@ -94,20 +151,18 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
   const double r_corner = std::hypot(std::max(cx, width_ - cx), std::max(cy, height_ - cy));
   cv::parallel_for_(cv::Range(0, height_), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
-      auto* uv = uv_.ptr<cv::Vec2f>(y);
+      const auto* uv = uv_->ptr<cv::Vec2f>(y);
       auto* gain = gain_.ptr<float>(y);
       auto* bg = background_.ptr<std::uint8_t>(y);
       for (int x = 0; x < width_; ++x) {
-        const Point2 n = cam.model.undistort({static_cast<double>(x), static_cast<double>(y)});
+        const Point2 n{uv[x][0], uv[x][1]};
         const double r = std::hypot(x - cx, y - cy) / r_corner;
         double g = 1.0 - rs.vignetting * r * r;
         if (std::isnan(n.x)) {
-          uv[x] = {kNaNf, kNaNf};
           gain[x] = static_cast<float>(g);
           bg[x] = 0;  // beyond the lens' image circle
           continue;
         }
-        uv[x] = {static_cast<float>(n.x), static_cast<float>(n.y)};
         const Eigen::Vector3d d = cam.R_wc * Eigen::Vector3d(n.x, n.y, 1.0);
         double grey = kWallGrey;
         if (d.z() < -1e-9) {
@@ -123,10 +178,8 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
     }
   });
   // Noise pool: larger than a frame so that each frame takes a different window of it.
-  std::mt19937 rng(rs.seed * 7919u + static_cast<unsigned>(camera_index));
-  std::normal_distribution<float> normal(0.0f, static_cast<float>(rs.noise_sigma));
-  noise_.resize(static_cast<std::size_t>(width_) * height_ * 2);
-  for (auto& v : noise_) v = static_cast<std::int8_t>(std::clamp(std::lround(normal(rng)), -127L, 127L));
+  noise_ = noise_pool(rs.noise_sigma, rs.seed * 7919u + static_cast<unsigned>(camera_index),
+                      static_cast<std::size_t>(width_) * height_ * 2);
 }
 
 MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose& pose) const {
@@ -139,14 +192,17 @@ MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose
   t.formula.edge_length = marker.length;
   bool visible = true;
   for (std::size_t i = 0; i < 4; ++i) {
-    const Eigen::Vector3d pc = cam.world_to_camera(marker_point(pose, marker.length, kCorners[i][0], kCorners[i][1]));
+    const Eigen::Vector3d pc =
+        cam.world_to_camera(marker_point(pose, marker.length, kCorners[i][0], kCorners[i][1]));
     const Point2 n{pc.x() / pc.z(), pc.y() / pc.z()};
     t.formula.corners_norm[i] = n;
-    const bool in_front = pc.z() > 0 && std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) < cam.model.max_theta();
+    const bool in_front =
+        pc.z() > 0 && std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) < cam.model.max_theta();
     const Point2 px = in_front ? cam.model.project(n) : Point2{-1e9, -1e9};
     t.formula.corners_px[i] = px;
     t.corners_px[i] = px;
-    visible = visible && in_front && px.x >= 3 && px.y >= 3 && px.x <= width_ - 4 && px.y <= height_ - 4;
+    visible =
+        visible && in_front && px.x >= 3 && px.y >= 3 && px.x <= width_ - 4 && px.y <= height_ - 4;
   }
   t.visible = visible;
   if (visible) t.formula = locate_from_normalised(t.formula);
@@ -185,10 +241,10 @@ void CameraRenderer::render_markers(const std::vector<PlacedMarker>& markers, cv
   for (const auto& m : markers) draw_marker(m, gray);
   if (scene_.render.noise_sigma > 0) {
     const std::size_t n = static_cast<std::size_t>(width_) * height_;
-    const std::size_t range = noise_.size() - n;
+    const std::size_t range = noise_->size() - n;
     // Odd multiplier: consecutive frames take far-apart windows of the pool.
     const std::size_t offset = static_cast<std::size_t>((noise_index * 2654435761ULL) % range);
-    const std::int8_t* noise = noise_.data() + offset;
+    const std::int8_t* noise = noise_->data() + offset;
     std::uint8_t* px = gray.ptr<std::uint8_t>(0);
     for (std::size_t i = 0; i < n; ++i) {
       const int v = px[i] + noise[i];
@@ -214,7 +270,8 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
         const double a = e == 0 ? s : (e == 1 ? half_plate : (e == 2 ? -s : -half_plate));
         const double b = e == 0 ? half_plate : (e == 1 ? -s : (e == 2 ? -half_plate : s));
         const Eigen::Vector3d pc = cam.world_to_camera(marker_point(pose, mk.length, a, b));
-        if (!(pc.z() > 1e-6) || std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) >= cam.model.max_theta()) {
+        if (!(pc.z() > 1e-6) ||
+            std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) >= cam.model.max_theta()) {
           continue;  // this part of the plate is outside the lens' field
         }
         const Point2 px = cam.model.project({pc.x() / pc.z(), pc.y() / pc.z()});
@@ -243,7 +300,7 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
   for (const MarkerPose& pose : pm.poses) {
     const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
     for (int y = 0; y < bh; ++y) {
-      const auto* uv = uv_.ptr<cv::Vec2f>(by0 + y) + bx0;
+      const auto* uv = uv_->ptr<cv::Vec2f>(by0 + y) + bx0;
       auto* out = ab.ptr<cv::Vec2f>(y);
       for (int x = 0; x < bw; ++x) {
         const Eigen::Vector3d d = R * Eigen::Vector3d(uv[x][0], uv[x][1], 1.0);
@@ -254,7 +311,8 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
         }
         const double qx = cam.position.x() + t * d.x() - pose.x;
         const double qy = cam.position.y() + t * d.y() - pose.y;
-        out[x] = {static_cast<float>((c * qx + s * qy) / mk.length), static_cast<float>((-s * qx + c * qy) / mk.length)};
+        out[x] = {static_cast<float>((c * qx + s * qy) / mk.length),
+                  static_cast<float>((-s * qx + c * qy) / mk.length)};
       }
     }
     // Region of every pixel centre: a cell of the pattern, the white margin, or off the plate.
@@ -272,10 +330,13 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
     }
     auto value_of = [&](int reg, float bg_value, float gain) -> float {
       switch (reg) {
-        case kBlack: return black * gain;
+        case kBlack:
+          return black * gain;
         case kWhite:
-        case kMargin: return white * gain;
-        default: return bg_value;  // off the plate (or no ray): what was there
+        case kMargin:
+          return white * gain;
+        default:
+          return bg_value;  // off the plate (or no ray): what was there
       }
     };
     for (int y = 0; y < bh; ++y) {
@@ -307,8 +368,10 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
             const double fx = x + (sx + 0.5) / S - 0.5;
             const int ix = std::clamp(static_cast<int>(std::floor(fx)), 0, bw - 2);
             const double tx = fx - ix;
-            const double a = (1 - ty) * ((1 - tx) * r0[ix][0] + tx * r0[ix + 1][0]) + ty * ((1 - tx) * r1[ix][0] + tx * r1[ix + 1][0]);
-            const double b = (1 - ty) * ((1 - tx) * r0[ix][1] + tx * r0[ix + 1][1]) + ty * ((1 - tx) * r1[ix][1] + tx * r1[ix + 1][1]);
+            const double a = (1 - ty) * ((1 - tx) * r0[ix][0] + tx * r0[ix + 1][0]) +
+                             ty * ((1 - tx) * r1[ix][0] + tx * r1[ix + 1][0]);
+            const double b = (1 - ty) * ((1 - tx) * r0[ix][1] + tx * r0[ix + 1][1]) +
+                             ty * ((1 - tx) * r1[ix][1] + tx * r1[ix + 1][1]);
             sum += value_of(region_of(a, b), bg[x], gain[x]);
           }
         }
@@ -325,8 +388,10 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
 }
 
 std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool colour) {
-  if (quality < 1 || quality > 100) throw InputError("JPEG quality must be 1..100, got " + std::to_string(quality));
-  if (gray.type() != CV_8UC1 || gray.empty()) throw std::invalid_argument("encode_jpeg: expected CV_8UC1");
+  if (quality < 1 || quality > 100)
+    throw InputError("JPEG quality must be 1..100, got " + std::to_string(quality));
+  if (gray.type() != CV_8UC1 || gray.empty())
+    throw std::invalid_argument("encode_jpeg: expected CV_8UC1");
   // One compressor per thread: tjInitCompress allocates, frames come at video rate.
   struct Handle {
     tjhandle h = tjInitCompress();
@@ -344,8 +409,8 @@ std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool col
   }
   unsigned char* buf = nullptr;
   unsigned long size = 0;
-  if (tjCompress2(handle.h, src.data, src.cols, static_cast<int>(src.step), src.rows, format, &buf, &size,
-                  subsampling, quality, TJFLAG_FASTDCT) != 0) {
+  if (tjCompress2(handle.h, src.data, src.cols, static_cast<int>(src.step), src.rows, format, &buf,
+                  &size, subsampling, quality, TJFLAG_FASTDCT) != 0) {
     const std::string err = tjGetErrorStr2(handle.h);
     tjFree(buf);
     throw std::runtime_error("libjpeg-turbo: " + err);

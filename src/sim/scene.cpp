@@ -4,8 +4,9 @@
 #include <numbers>
 #include <stdexcept>
 
-#include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
+#include <Eigen/Geometry>
+#include <opencv2/aruco.hpp>
 
 #include "ips/detector.h"
 #include "ips/error.h"
@@ -20,7 +21,8 @@ class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& key, const std::string& what) const {
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& key,
+                         const std::string& what) const {
     const int line = node.IsDefined() ? node.Mark().line + 1 : 0;
     throw InputError(file_ + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + key +
                      ": " + what);
@@ -48,8 +50,9 @@ class Reader {
     const YAML::Node n = parent[key];
     if (!n) fail(parent, path + key, "missing");
     if (!n.IsSequence() || n.size() < min_n || n.size() > max_n) {
-      fail(n, path + key, "expected a list of " + std::to_string(min_n) +
-                              (max_n != min_n ? ".." + std::to_string(max_n) : std::string()) + " numbers");
+      fail(n, path + key,
+           "expected a list of " + std::to_string(min_n) +
+               (max_n != min_n ? ".." + std::to_string(max_n) : std::string()) + " numbers");
     }
     std::vector<double> out;
     for (const auto& v : n) {
@@ -95,13 +98,16 @@ class Reader {
 Eigen::Vector2d vec2(const std::vector<double>& v) { return {v[0], v[1]}; }
 
 Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::string& path) {
-  r.only_keys(n, path, {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading"});
+  r.only_keys(
+      n, path,
+      {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading"});
   Trajectory t;
   const std::string type = r.text(n, path, "type", "");
   t.speed = r.number(n, path, "speed", 0.0, true);
   if (t.speed < 0) r.fail(n["speed"], path + "speed", "must be >= 0");
   const std::string heading = r.text(n, path, "heading", "path");
-  if (heading != "path" && heading != "fixed") r.fail(n["heading"], path + "heading", "expected path or fixed");
+  if (heading != "path" && heading != "fixed")
+    r.fail(n["heading"], path + "heading", "expected path or fixed");
   t.heading_follows_path = heading == "path";
   if (type == "circle") {
     t.kind = Trajectory::Kind::kCircle;
@@ -128,10 +134,12 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
     for (std::size_t i = 0; i < pts.size(); ++i) {
       YAML::Node holder;
       holder["p"] = pts[i];
-      t.points.push_back(vec2(r.numbers(holder, path + "points[" + std::to_string(i) + "]", "p", 2, 2)));
+      t.points.push_back(
+          vec2(r.numbers(holder, path + "points[" + std::to_string(i) + "]", "p", 2, 2)));
     }
   } else {
-    r.fail(n["type"] ? n["type"] : n, path + "type", "expected circle, line or waypoints, got '" + type + "'");
+    r.fail(n["type"] ? n["type"] : n, path + "type",
+           "expected circle, line or waypoints, got '" + type + "'");
   }
   return t;
 }
@@ -197,30 +205,39 @@ Scene Scene::load(const std::filesystem::path& path) {
       scene.floor.size_y = s[1];
     }
     scene.floor.grey = r.number(f, "floor.", "grey", scene.floor.grey);
-    scene.floor.texture_contrast = r.number(f, "floor.", "texture_contrast", scene.floor.texture_contrast);
+    scene.floor.texture_contrast =
+        r.number(f, "floor.", "texture_contrast", scene.floor.texture_contrast);
     scene.floor.texture_scale = r.number(f, "floor.", "texture_scale", scene.floor.texture_scale);
-    if (!(scene.floor.texture_scale > 0)) r.fail(f["texture_scale"], "floor.texture_scale", "must be > 0");
+    if (!(scene.floor.texture_scale > 0))
+      r.fail(f["texture_scale"], "floor.texture_scale", "must be > 0");
     scene.floor.seed = static_cast<unsigned>(r.number(f, "floor.", "seed", scene.floor.seed));
   }
 
   if (const YAML::Node g = root["render"]) {
     auto& s = scene.render;
-    r.only_keys(g, "render.", {"supersample", "noise_sigma", "jpeg_quality", "vignetting", "gradient",
-                               "exposure", "blur_samples", "white", "black", "seed"});
+    r.only_keys(g, "render.",
+                {"supersample", "noise_sigma", "jpeg_quality", "vignetting", "gradient", "exposure",
+                 "blur_samples", "white", "black", "seed"});
     s.supersample = static_cast<int>(r.number(g, "render.", "supersample", s.supersample));
-    if (s.supersample < 1 || s.supersample > 8) r.fail(g["supersample"], "render.supersample", "must be 1..8");
+    if (s.supersample < 1 || s.supersample > 8)
+      r.fail(g["supersample"], "render.supersample", "must be 1..8");
     s.noise_sigma = r.number(g, "render.", "noise_sigma", s.noise_sigma);
-    if (s.noise_sigma < 0 || s.noise_sigma > 50) r.fail(g["noise_sigma"], "render.noise_sigma", "must be 0..50");
+    if (s.noise_sigma < 0 || s.noise_sigma > 50)
+      r.fail(g["noise_sigma"], "render.noise_sigma", "must be 0..50");
     s.jpeg_quality = static_cast<int>(r.number(g, "render.", "jpeg_quality", s.jpeg_quality));
-    if (s.jpeg_quality < 0 || s.jpeg_quality > 100) r.fail(g["jpeg_quality"], "render.jpeg_quality", "must be 0..100");
+    if (s.jpeg_quality < 0 || s.jpeg_quality > 100)
+      r.fail(g["jpeg_quality"], "render.jpeg_quality", "must be 0..100");
     s.vignetting = r.number(g, "render.", "vignetting", s.vignetting);
-    if (s.vignetting < 0 || s.vignetting >= 1) r.fail(g["vignetting"], "render.vignetting", "must be in [0, 1)");
+    if (s.vignetting < 0 || s.vignetting >= 1)
+      r.fail(g["vignetting"], "render.vignetting", "must be in [0, 1)");
     s.gradient = r.number(g, "render.", "gradient", s.gradient);
     if (std::abs(s.gradient) >= 1) r.fail(g["gradient"], "render.gradient", "must be in (-1, 1)");
     s.exposure = r.number(g, "render.", "exposure", s.exposure);
-    if (s.exposure < 0 || s.exposure > 1) r.fail(g["exposure"], "render.exposure", "must be 0..1 s");
+    if (s.exposure < 0 || s.exposure > 1)
+      r.fail(g["exposure"], "render.exposure", "must be 0..1 s");
     s.blur_samples = static_cast<int>(r.number(g, "render.", "blur_samples", s.blur_samples));
-    if (s.blur_samples < 1 || s.blur_samples > 64) r.fail(g["blur_samples"], "render.blur_samples", "must be 1..64");
+    if (s.blur_samples < 1 || s.blur_samples > 64)
+      r.fail(g["blur_samples"], "render.blur_samples", "must be 1..64");
     s.white = r.number(g, "render.", "white", s.white);
     s.black = r.number(g, "render.", "black", s.black);
     if (!(s.black >= 0 && s.white <= 255 && s.white > s.black + 20)) {
@@ -241,7 +258,8 @@ Scene Scene::load(const std::filesystem::path& path) {
     cam.name = r.text(c, p, "name", "");
     if (cam.name.empty()) r.fail(c, p + "name", "missing");
     for (const auto& other : scene.cameras) {
-      if (other.name == cam.name) r.fail(c["name"], p + "name", "duplicate camera name '" + cam.name + "'");
+      if (other.name == cam.name)
+        r.fail(c["name"], p + "name", "duplicate camera name '" + cam.name + "'");
     }
     const std::string intr = r.text(c, p, "intrinsics", "");
     if (intr.empty()) r.fail(c, p + "intrinsics", "missing");
@@ -254,13 +272,16 @@ Scene Scene::load(const std::filesystem::path& path) {
     }
     const auto pos = r.numbers(c, p, "position", 2, 3);
     cam.position = {pos[0], pos[1], pos.size() > 2 ? pos[2] : 2.1};
-    if (!(cam.position.z() > 0.3)) r.fail(c["position"], p + "position", "camera must be > 0.3 m above the floor");
+    if (!(cam.position.z() > 0.3))
+      r.fail(c["position"], p + "position", "camera must be > 0.3 m above the floor");
     std::vector<double> rot{0, 0, 0};
     if (c["rotation_deg"]) rot = r.numbers(c, p, "rotation_deg", 3, 3);
     cam.R_wc = orientation(rot[0] * kDeg, rot[1] * kDeg, rot[2] * kDeg);
     scene.cameras.push_back(std::move(cam));
   }
 
+  const int dictionary_size =
+      cv::aruco::getPredefinedDictionary(dictionary_id(scene.dictionary))->bytesList.rows;
   if (const YAML::Node ms = root["markers"]) {
     if (!ms.IsSequence()) r.fail(ms, "markers", "expected a list");
     for (std::size_t i = 0; i < ms.size(); ++i) {
@@ -269,13 +290,20 @@ Scene Scene::load(const std::filesystem::path& path) {
       r.only_keys(m, p, {"id", "length", "margin", "x", "y", "height", "yaw_deg", "trajectory"});
       SceneMarker mk;
       const double id = r.number(m, p, "id", 0, true);
-      if (id < 0 || id != std::floor(id)) r.fail(m["id"], p + "id", "must be a non-negative integer");
+      if (id < 0 || id != std::floor(id))
+        r.fail(m["id"], p + "id", "must be a non-negative integer");
       mk.id = static_cast<int>(id);
+      if (mk.id >= dictionary_size) {
+        r.fail(m["id"], p + "id",
+               "not in " + scene.dictionary + " (0.." + std::to_string(dictionary_size - 1) + ")");
+      }
       for (const auto& other : scene.markers) {
-        if (other.id == mk.id) r.fail(m["id"], p + "id", "duplicate marker id " + std::to_string(mk.id));
+        if (other.id == mk.id)
+          r.fail(m["id"], p + "id", "duplicate marker id " + std::to_string(mk.id));
       }
       mk.length = r.number(m, p, "length", mk.length);
-      if (!(mk.length > 0.005 && mk.length < 5)) r.fail(m["length"], p + "length", "must be 0.005..5 m");
+      if (!(mk.length > 0.005 && mk.length < 5))
+        r.fail(m["length"], p + "length", "must be 0.005..5 m");
       mk.margin = r.number(m, p, "margin", mk.margin);
       mk.start.x = r.number(m, p, "x", 0, !m["trajectory"]);
       mk.start.y = r.number(m, p, "y", 0, !m["trajectory"]);

@@ -13,7 +13,8 @@ SyntheticSource::SyntheticSource(std::shared_ptr<const Scene> scene, SyntheticSo
       options_(std::move(options)),
       renderer_(*scene_, scene_->camera_index(options_.camera)) {
   if (!(options_.fps > 0 && options_.fps <= 1000)) {
-    throw InputError("synthetic source: fps must be in (0, 1000], got " + std::to_string(options_.fps));
+    throw InputError("synthetic source: fps must be in (0, 1000], got " +
+                     std::to_string(options_.fps));
   }
 }
 
@@ -42,12 +43,14 @@ FrameSource::ReadStatus SyntheticSource::read(Frame& out, std::chrono::milliseco
     const std::int64_t now = monotonic_ns();
     // Behind schedule: skip to the newest frame already due (a camera would have dropped the rest).
     if (now > frame_time_ns(next_)) {
-      const double due = std::floor(static_cast<double>(now - epoch_mono_ns_) * options_.fps * 1e-9);
+      const double due =
+          std::floor(static_cast<double>(now - epoch_mono_ns_) * options_.fps * 1e-9);
       next_ = std::max<std::uint64_t>(next_, static_cast<std::uint64_t>(due));
     }
     const std::int64_t wait = frame_time_ns(next_) - now;
     if (wait > 0) {
-      const std::int64_t limit = std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
+      const std::int64_t limit =
+          std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
       if (wait > limit) {
         std::this_thread::sleep_for(std::chrono::nanoseconds(limit));
         return ReadStatus::kTimeout;

@@ -63,10 +63,12 @@ inline std::string loaded_asan_runtime() {
   return found;
 }
 
-/// Runs `argv` with the emulator preloaded, serving `devices` (fake path -> control file).
-inline ChildResult run_emulated(const std::vector<std::string>& argv,
-                                const std::map<std::string, std::string>& devices,
-                                const std::string& work_dir) {
+/// Starts `argv` with the emulator preloaded, serving `devices` (fake path -> control file),
+/// stdout to `out_path` and stderr to `err_path` (may be the same file). Returns the pid, or
+/// -1 (errno set) if the program could not be started.
+inline pid_t spawn_emulated(const std::vector<std::string>& argv,
+                            const std::map<std::string, std::string>& devices,
+                            const std::string& out_path, const std::string& err_path) {
   std::string device_list;
   for (const auto& [path, control] : devices)
     device_list += (device_list.empty() ? "" : ",") + path + "=" + control;
@@ -92,32 +94,48 @@ inline ChildResult run_emulated(const std::vector<std::string>& argv,
   for (auto& s : argv_copy) args.push_back(s.data());
   args.push_back(nullptr);
 
-  const std::string out_path = work_dir + "/child.out", err_path = work_dir + "/child.err";
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
                                    0644);
-  posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
-                                   0644);
+  if (err_path == out_path)
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  else
+    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
   pid_t pid = 0;
-  ChildResult result;
   const int rc = posix_spawn(&pid, args[0], &actions, nullptr, args.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
   if (rc != 0) {
-    result.err = std::string("posix_spawn failed: ") + std::strerror(rc);
+    errno = rc;
+    return -1;
+  }
+  return pid;
+}
+
+inline std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Runs `argv` with the emulator preloaded to completion and collects its output.
+inline ChildResult run_emulated(const std::vector<std::string>& argv,
+                                const std::map<std::string, std::string>& devices,
+                                const std::string& work_dir) {
+  const std::string out_path = work_dir + "/child.out", err_path = work_dir + "/child.err";
+  ChildResult result;
+  const pid_t pid = spawn_emulated(argv, devices, out_path, err_path);
+  if (pid < 0) {
+    result.err = std::string("cannot start ") + argv[0] + ": " + std::strerror(errno);
     return result;
   }
   int wstatus = 0;
   waitpid(pid, &wstatus, 0);
   result.status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : 128 + WTERMSIG(wstatus);
-  auto slurp = [](const std::string& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  result.out = slurp(out_path);
-  result.err = slurp(err_path);
+  result.out = read_text(out_path);
+  result.err = read_text(err_path);
   return result;
 }
 

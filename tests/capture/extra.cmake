@@ -16,4 +16,7 @@ if(TARGET test_capture)
     IPS_V4L2_EMU_LIB="$<TARGET_FILE:ips_v4l2_emu>"
     IPS_CAPTURE_DRIVER="$<TARGET_FILE:v4l2_capture_driver>"
     IPS_TOOL="$<TARGET_FILE:ips_tool>")
+  if(TARGET ipsd)  # the end-to-end test runs the daemon on emulated cameras
+    add_dependencies(test_capture ipsd)
+  endif()
 endif()

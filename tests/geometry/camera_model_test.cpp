@@ -114,7 +114,8 @@ TEST(CameraModel, FisheyeUndistortAgreesWithOpenCVInTheCentre) {
 TEST(CameraModel, PinholeRoundTripAndOpenCVProjection) {
   const cv::Matx33d K(1000, 0, 960, 0, 1005, 540, 0, 0, 1);
   for (const std::vector<double>& D :
-       {std::vector<double>{-0.2, 0.05, 0.001, -0.0005}, std::vector<double>{-0.25, 0.08, 0.0005, 0.0002, -0.01},
+       {std::vector<double>{-0.2, 0.05, 0.001, -0.0005},
+        std::vector<double>{-0.25, 0.08, 0.0005, 0.0002, -0.01},
         std::vector<double>{-0.1, 0.02, 0.0003, 0.0001, 0.001, 0.05, -0.01, 0.002}}) {
     SCOPED_TRACE(D.size());
     const ips::CameraModel cam(ips::CameraModel::Kind::kPinhole, {1920, 1080}, K, D);
@@ -131,12 +132,13 @@ TEST(CameraModel, PinholeRoundTripAndOpenCVProjection) {
 }
 
 TEST(CameraModel, ReadsOpenCVFileStorage) {
-  const auto p = write_temp("cv_calib.yml",
-                            "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
-                            "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-                            "   data: [ 700., 0., 640., 0., 701., 360., 0., 0., 1. ]\n"
-                            "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
-                            "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
+  const auto p =
+      write_temp("cv_calib.yml",
+                 "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
+                 "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                 "   data: [ 700., 0., 640., 0., 701., 360., 0., 0., 1. ]\n"
+                 "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
+                 "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
   const auto cam = ips::CameraModel::load(p);
   EXPECT_EQ(cam.kind(), ips::CameraModel::Kind::kPinhole);
   EXPECT_EQ(cam.size(), cv::Size(1280, 720));
@@ -153,12 +155,13 @@ TEST(CameraModel, ReadsOpenCVFileStorage) {
   EXPECT_EQ(fish.kind(), ips::CameraModel::Kind::kFisheye);
   EXPECT_EQ(fish.size().width, 1920);
 
-  const auto bad = write_temp("cv_bad.yml",
-                              "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
-                              "camera_matrix: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
-                              "   data: [ 700., 0., 640., 0. ]\n"
-                              "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
-                              "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
+  const auto bad =
+      write_temp("cv_bad.yml",
+                 "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
+                 "camera_matrix: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
+                 "   data: [ 700., 0., 640., 0. ]\n"
+                 "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
+                 "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
   EXPECT_NE(expect_input_error(bad).find("camera_matrix"), std::string::npos);
 }
 
@@ -169,15 +172,29 @@ TEST(CameraModel, BadFilesNameTheKey) {
     std::string text;
     const char* key;
   } cases[] = {
-      {"no_model.yaml", "image_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "model"},
-      {"bad_model.yaml", "model: fish\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "model"},
-      {"short_k.yaml", "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [1,2,3]\nD: [0,0,0,0]\n", "'K'"},
-      {"nan_k.yaml", "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [.nan, 0, 960, 0, 1000, 540, 0, 0, 1]\nD: [0,0,0,0]\n", "'K'"},
-      {"short_d.yaml", "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0]\n", "'D'"},
-      {"pinhole_d.yaml", "model: pinhole\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0,0,0]\n", "'D'"},
-      {"text_d.yaml", "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [a,0,0,0]\n", "'D'"},
-      {"no_width.yaml", "model: fisheye\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "image_width"},
-      {"neg_width.yaml", "model: fisheye\nimage_width: -5\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "image_width"},
+      {"no_model.yaml", "image_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n",
+       "model"},
+      {"bad_model.yaml",
+       "model: fish\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "model"},
+      {"short_k.yaml",
+       "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [1,2,3]\nD: [0,0,0,0]\n", "'K'"},
+      {"nan_k.yaml",
+       "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [.nan, 0, 960, 0, 1000, 540, 0, "
+       "0, 1]\nD: [0,0,0,0]\n",
+       "'K'"},
+      {"short_d.yaml",
+       "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0]\n", "'D'"},
+      {"pinhole_d.yaml",
+       "model: pinhole\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0,0,0]\n",
+       "'D'"},
+      {"text_d.yaml",
+       "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [a,0,0,0]\n",
+       "'D'"},
+      {"no_width.yaml", "model: fisheye\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n",
+       "image_width"},
+      {"neg_width.yaml",
+       "model: fisheye\nimage_width: -5\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n",
+       "image_width"},
       {"broken.yaml", "model: [fisheye\n", "YAML"},
   };
   for (const auto& c : cases) {
@@ -186,7 +203,8 @@ TEST(CameraModel, BadFilesNameTheKey) {
     EXPECT_NE(msg.find(c.key), std::string::npos) << msg;
     EXPECT_NE(msg.find(c.name), std::string::npos) << msg;
   }
-  EXPECT_NE(expect_input_error("/nonexistent/cam.yaml").find("/nonexistent/cam.yaml"), std::string::npos);
+  EXPECT_NE(expect_input_error("/nonexistent/cam.yaml").find("/nonexistent/cam.yaml"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -16,7 +16,8 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path temp_path(const std::string& name) {
-  return fs::temp_directory_path() / ("ips_mapping_test_" + std::to_string(::getpid()) + "_" + name);
+  return fs::temp_directory_path() /
+         ("ips_mapping_test_" + std::to_string(::getpid()) + "_" + name);
 }
 
 void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
@@ -46,11 +47,12 @@ TEST_P(RoundTrip, SaveLoadPredictIsBitIdentical) {
   ips::CameraModelEntry entry;
   entry.mapper = ips::make_mapper(GetParam());
   ips::FitOptions options;
-  options.folds = 4;
+  options.folds = 2;
   entry.mapper->fit(cam, world, options);
   entry.training = {{"n", 24}};
   set.cameras.emplace("red", std::move(entry));
-  const fs::path p = temp_path("model_" + std::to_string(std::hash<std::string>{}(GetParam())) + ".json");
+  const fs::path p =
+      temp_path("model_" + std::to_string(std::hash<std::string>{}(GetParam())) + ".json");
   ips::save_model_file(set, p);
   const ips::ModelSet loaded = ips::load_model_file(p);
   fs::remove(p);
@@ -82,7 +84,8 @@ INSTANTIATE_TEST_SUITE_P(EveryMethod, RoundTrip, ::testing::ValuesIn(ips::mapper
 
 TEST(ModelFile, DoublesRoundTripExactly) {
   // nlohmann writes the shortest representation that reads back to the same double.
-  for (double v : {0.1, 1.0 / 3.0, 2.220446049250313e-16, 123456789.123456789, -5e-324, 1.7976931348623157e308}) {
+  for (double v : {0.1, 1.0 / 3.0, 2.220446049250313e-16, 123456789.123456789, -5e-324,
+                   1.7976931348623157e308}) {
     const nlohmann::json j = {{"v", v}};
     EXPECT_EQ(nlohmann::json::parse(j.dump())["v"].get<double>(), v);
   }
@@ -112,19 +115,26 @@ TEST(ModelFile, RefusesBadFilesWithClearErrors) {
   EXPECT_TRUE(has(e, "version 2 is not supported")) << e;
   e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{}})");
   EXPECT_TRUE(has(e, "\"cameras\" must be a non-empty object")) << e;
-  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"magic","params":{}}}})");
+  e = load_error(
+      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"magic","params":{}}}})");
   EXPECT_TRUE(has(e, "camera 'red': unknown mapping method 'magic'")) << e;
-  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[1,0,0],[0,1,0],[0,0,1]]}}}})");
+  e = load_error(
+      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[1,0,0],[0,1,0],[0,0,1]]}}}})");
   EXPECT_TRUE(has(e, "camera 'red': parameter 't' is missing")) << e;
-  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[1,2]}}}})");
+  e = load_error(
+      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[1,2]}}}})");
   EXPECT_TRUE(has(e, "parameter 't': expected an array of 3 numbers")) << e;
-  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[1,null,2]}}}})");
+  e = load_error(
+      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[1,null,2]}}}})");
   EXPECT_TRUE(has(e, "parameter 't[1]': expected a number")) << e;
-  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[2,0,0],[0,1,0],[0,0,1]],"t":[1,2,3]}}}})");
+  e = load_error(
+      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[2,0,0],[0,1,0],[0,0,1]],"t":[1,2,3]}}}})");
   EXPECT_TRUE(has(e, "parameter 'R': not a rotation matrix")) << e;
-  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"pr","params":{"terms":"1,x,y,z,xy,xz,yz,x2,y2,z2","coefficients":[[1,2,3]]}}}})");
+  e = load_error(
+      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"pr","params":{"terms":"1,x,y,z,xy,xz,yz,x2,y2,z2","coefficients":[[1,2,3]]}}}})");
   EXPECT_TRUE(has(e, "parameter 'coefficients'")) << e;
-  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt+ki","params":{"rt":{"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[0,0,0]}}}}})");
+  e = load_error(
+      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt+ki","params":{"rt":{"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[0,0,0]}}}}})");
   EXPECT_TRUE(has(e, "parameter 'inner' is missing")) << e;
   // A truncated copy of a valid file.
   e = load_error(std::string(kGood).substr(0, 60));

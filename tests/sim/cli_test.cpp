@@ -46,7 +46,8 @@ fs::path temp_dir(const std::string& name) {
 
 std::string scene_text() {
   return "render: {noise_sigma: 2, jpeg_quality: 90}\n"
-         "cameras:\n  - name: red\n    intrinsics: " + (kData / "ou2023/intrinsics_red.yaml").string() +
+         "cameras:\n  - name: red\n    intrinsics: " +
+         (kData / "ou2023/intrinsics_red.yaml").string() +
          "\n    position: [2.34, 0.92, 2.13]\n"
          "markers:\n  - {id: 5, length: 0.2, x: 2.0, y: 1.2, height: 0.05, yaw_deg: 20}\n"
          "  - {id: 9, length: 0.15, x: 3.0, y: 0.5, height: 0.1, yaw_deg: -60}\n";
@@ -56,7 +57,8 @@ TEST(Cli, SimRenderThenLocateAgreesWithTruth) {
   const fs::path dir = temp_dir("render");
   const fs::path scene = dir / "scene.yaml";
   std::ofstream(scene) << scene_text();
-  const CmdResult r = run("sim render --scene " + scene.string() + " --out " + (dir / "out").string() + " --frames 2");
+  const CmdResult r = run("sim render --scene " + scene.string() + " --out " +
+                          (dir / "out").string() + " --frames 2");
   ASSERT_EQ(r.status, 0) << r.out;
   ASSERT_TRUE(fs::exists(dir / "out/red_000001.jpg"));
   std::ifstream in(dir / "out/truth_000000.json");
@@ -73,13 +75,15 @@ TEST(Cli, SimRenderThenLocateAgreesWithTruth) {
   EXPECT_DOUBLE_EQ(m5["cameras"]["red"]["corners"][2][0].get<double>(), exact[0].corners_px[2].x);
   EXPECT_DOUBLE_EQ(m5["cameras"]["red"]["zc"].get<double>(), exact[0].formula.p_cam.z());
 
-  const CmdResult loc = run("locate --image " + (dir / "out/red_000000.jpg").string() + " --intrinsics " +
-                      (kData / "ou2023/intrinsics_red.yaml").string() + " --marker-size 9=0.15 --json");
+  const CmdResult loc =
+      run("locate --image " + (dir / "out/red_000000.jpg").string() + " --intrinsics " +
+          (kData / "ou2023/intrinsics_red.yaml").string() + " --marker-size 9=0.15 --json");
   ASSERT_EQ(loc.status, 0) << loc.out;
   const auto found = nlohmann::json::parse(loc.out)["markers"];
   ASSERT_EQ(found.size(), 2u);
   for (const auto& f : found) {
-    const auto& t = f["id"] == 5 ? truth["markers"][0]["cameras"]["red"] : truth["markers"][1]["cameras"]["red"];
+    const auto& t = f["id"] == 5 ? truth["markers"][0]["cameras"]["red"]
+                                 : truth["markers"][1]["cameras"]["red"];
     EXPECT_NEAR(f["xc"].get<double>(), t["xc"].get<double>(), 0.01);
     EXPECT_NEAR(f["yc"].get<double>(), t["yc"].get<double>(), 0.01);
     EXPECT_NEAR(f["zc"].get<double>(), t["zc"].get<double>(), 0.02);
@@ -88,8 +92,8 @@ TEST(Cli, SimRenderThenLocateAgreesWithTruth) {
       EXPECT_NEAR(f["corners"][i][1].get<double>(), t["corners"][i][1].get<double>(), 0.3);
     }
   }
-  const CmdResult text = run("locate --image " + (dir / "out/red_000000.jpg").string() + " --intrinsics " +
-                       (kData / "ou2023/intrinsics_red.yaml").string());
+  const CmdResult text = run("locate --image " + (dir / "out/red_000000.jpg").string() +
+                             " --intrinsics " + (kData / "ou2023/intrinsics_red.yaml").string());
   EXPECT_EQ(text.status, 0);
   EXPECT_NE(text.out.find("2 marker(s)"), std::string::npos) << text.out;
 }
@@ -101,21 +105,29 @@ TEST(Cli, LocateRefusesBadImagesAndIntrinsics) {
   // A truncated JPEG: the first half of a real frame.
   const fs::path scene = dir / "scene.yaml";
   std::ofstream(scene) << scene_text();
-  ASSERT_EQ(run("sim render --scene " + scene.string() + " --out " + (dir / "f").string()).status, 0);
+  ASSERT_EQ(run("sim render --scene " + scene.string() + " --out " + (dir / "f").string()).status,
+            0);
   std::ifstream full(dir / "f/red_000000.jpg", std::ios::binary);
   std::ostringstream whole;
   whole << full.rdbuf();
   const std::string bytes = whole.str();
   std::ofstream(dir / "half.jpg", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
-  std::ofstream(dir / "bad_intr.yaml") << "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [1, 2]\nD: [0, 0, 0, 0]\n";
+  std::ofstream(dir / "bad_intr.yaml")
+      << "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [1, 2]\nD: [0, 0, 0, 0]\n";
 
   for (const auto& [args, expect] : std::vector<std::pair<std::string, std::string>>{
            {"--image " + (dir / "text.jpg").string() + " --intrinsics " + intr, "text.jpg"},
            {"--image " + (dir / "half.jpg").string() + " --intrinsics " + intr, "half.jpg"},
            {"--image " + (dir / "missing.jpg").string() + " --intrinsics " + intr, "missing.jpg"},
-           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + (dir / "bad_intr.yaml").string(), "'K'"},
-           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr + " --dictionary DICT_3X3", "DICT_3X3"},
-           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr + " --marker-size 5:0.2", "5:0.2"},
+           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " +
+                (dir / "bad_intr.yaml").string(),
+            "'K'"},
+           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr +
+                " --dictionary DICT_3X3",
+            "DICT_3X3"},
+           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr +
+                " --marker-size 5:0.2",
+            "5:0.2"},
        }) {
     const CmdResult r = run("locate " + args);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
@@ -125,15 +137,19 @@ TEST(Cli, LocateRefusesBadImagesAndIntrinsics) {
 
 TEST(Cli, SimCommandsRefuseBadScenesWithoutWritingOutput) {
   const fs::path dir = temp_dir("sim_errors");
-  std::ofstream(dir / "bad.yaml") << "cameras:\n  - name: red\n    intrinsics: nope.yaml\n    position: [1, 1, 2]\n";
-  CmdResult r = run("sim render --scene " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
+  std::ofstream(dir / "bad.yaml")
+      << "cameras:\n  - name: red\n    intrinsics: nope.yaml\n    position: [1, 1, 2]\n";
+  CmdResult r =
+      run("sim render --scene " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.out.find("cameras[0].intrinsics"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir / "out"));
-  r = run("sim collect --scene " + (dir / "bad.yaml").string() + " --points 3 --out " + (dir / "p.csv").string());
+  r = run("sim collect --scene " + (dir / "bad.yaml").string() + " --points 3 --out " +
+          (dir / "p.csv").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_FALSE(fs::exists(dir / "p.csv"));
-  r = run("sim render --scene " + (dir / "missing.yaml").string() + " --out " + (dir / "out").string());
+  r = run("sim render --scene " + (dir / "missing.yaml").string() + " --out " +
+          (dir / "out").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.out.find("missing.yaml"), std::string::npos) << r.out;
 }
@@ -142,8 +158,8 @@ TEST(Cli, SimCollectWritesPairsConsistentWithTheCameraPose) {
   const fs::path dir = temp_dir("collect");
   const fs::path scene = dir / "scene.yaml";
   std::ofstream(scene) << scene_text();
-  const CmdResult r = run("sim collect --scene " + scene.string() + " --points 5 --tape-noise 0 --out " +
-                    (dir / "pairs.csv").string());
+  const CmdResult r = run("sim collect --scene " + scene.string() +
+                          " --points 5 --tape-noise 0 --out " + (dir / "pairs.csv").string());
   ASSERT_EQ(r.status, 0) << r.out;
   const auto loaded = ips::sim::Scene::load(scene);
   std::ifstream in(dir / "pairs.csv");

@@ -7,8 +7,8 @@
 #include <numbers>
 #include <sstream>
 
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <Eigen/Dense>
 
 #include "ips/error.h"
 
@@ -41,7 +41,8 @@ void kabsch(const std::vector<Eigen::Vector3d>& cam, const std::vector<Eigen::Ve
 TEST(Scene, PublishedLayoutAgreesWithRigidFitOfTrain40) {
   const auto scene = ips::sim::Scene::load(kScene);
   ASSERT_EQ(scene.cameras.size(), 3u);
-  std::map<std::string, std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>> pairs;
+  std::map<std::string, std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>>
+      pairs;
   std::ifstream in(kData / "ou2023/train40.csv");
   std::string line;
   std::getline(in, line);
@@ -68,8 +69,9 @@ TEST(Scene, PublishedLayoutAgreesWithRigidFitOfTrain40) {
     const double angle = Eigen::AngleAxisd(R.transpose() * cam.R_wc).angle();
     EXPECT_LT(angle, 0.05 * std::numbers::pi / 180) << angle;
     // ... which looks straight down to within 2 degrees.
-    EXPECT_LT(Eigen::AngleAxisd(cam.R_wc.transpose() * ips::sim::Scene::orientation(0, 0, 0)).angle(),
-              2.0 * std::numbers::pi / 180);
+    EXPECT_LT(
+        Eigen::AngleAxisd(cam.R_wc.transpose() * ips::sim::Scene::orientation(0, 0, 0)).angle(),
+        2.0 * std::numbers::pi / 180);
     EXPECT_EQ(cam.model.size().width, 1920);
   }
 }
@@ -89,7 +91,8 @@ TEST(Scene, TrajectoriesAreWhereTheyShouldBe) {
   EXPECT_NEAR(p.x, 2.4, 1e-9);
   EXPECT_NEAR(p.y, 3.6, 1e-9);
   EXPECT_NEAR(p.z, 0.15, 1e-12);
-  EXPECT_NEAR(std::remainder(p.yaw - std::numbers::pi, 2 * std::numbers::pi), 0.0, 1e-9);  // heading -x
+  EXPECT_NEAR(std::remainder(p.yaw - std::numbers::pi, 2 * std::numbers::pi), 0.0,
+              1e-9);  // heading -x
   // Line back and forth: from (1.2, 0.6) to (3.6, 4.2), length sqrt(2.4^2 + 3.6^2).
   const double len = std::hypot(2.4, 3.6);
   const auto end = scene.marker_pose(2, len / 0.3);
@@ -118,7 +121,8 @@ fs::path write_scene(const std::string& name, const std::string& body) {
 
 TEST(Scene, BadScenesNameFileLineAndKey) {
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
-  const std::string cam = "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n";
+  const std::string cam =
+      "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n";
   struct Case {
     const char* file;
     std::string body;
@@ -127,12 +131,22 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
       {"no_cameras.yaml", "floor: {size: [4, 4]}\n", "cameras"},
       {"typo.yaml", cam + "flor: {size: [4, 4]}\n", "flor"},
       {"bad_size.yaml", cam + "floor: {size: [4, -1]}\n", "floor.size"},
-      {"bad_intr.yaml", "cameras:\n  - name: red\n    intrinsics: missing.yaml\n    position: [1, 1, 2]\n", "cameras[0].intrinsics"},
-      {"bad_pos.yaml", "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, x, 2]\n", "cameras[0].position"},
-      {"dup_cam.yaml", cam + "  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n", "duplicate"},
-      {"bad_traj.yaml", cam + "markers:\n  - id: 1\n    trajectory: {type: spiral, speed: 1}\n", "markers[0].trajectory.type"},
-      {"bad_radius.yaml", cam + "markers:\n  - id: 1\n    trajectory: {type: circle, center: [1, 1], radius: -2, speed: 1}\n", "radius"},
+      {"bad_intr.yaml",
+       "cameras:\n  - name: red\n    intrinsics: missing.yaml\n    position: [1, 1, 2]\n",
+       "cameras[0].intrinsics"},
+      {"bad_pos.yaml",
+       "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, x, 2]\n",
+       "cameras[0].position"},
+      {"dup_cam.yaml",
+       cam + "  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n", "duplicate"},
+      {"bad_traj.yaml", cam + "markers:\n  - id: 1\n    trajectory: {type: spiral, speed: 1}\n",
+       "markers[0].trajectory.type"},
+      {"bad_radius.yaml",
+       cam + "markers:\n  - id: 1\n    trajectory: {type: circle, center: [1, 1], radius: -2, "
+             "speed: 1}\n",
+       "radius"},
       {"no_xy.yaml", cam + "markers:\n  - id: 1\n    length: 0.2\n", "markers[0].x"},
+      {"bad_id.yaml", cam + "markers:\n  - {id: 100, x: 1, y: 1}\n", "markers[0].id"},
       {"bad_dict.yaml", "dictionary: DICT_9X9\n" + cam, "dictionary"},
       {"bad_quality.yaml", cam + "render: {jpeg_quality: 101}\n", "render.jpeg_quality"},
       {"broken.yaml", cam + "markers: [\n", "YAML"},

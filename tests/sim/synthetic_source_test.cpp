@@ -19,7 +19,8 @@ std::shared_ptr<const ips::sim::Scene> published_scene() {
 
 TEST(SyntheticSource, SourcesOfOneSceneAgreeOnSceneTimeAndTruth) {
   const std::int64_t epoch = ips::monotonic_ns();
-  ips::sim::SyntheticSourceOptions a{.camera = "red", .fps = 20, .realtime = false, .epoch_mono_ns = epoch};
+  ips::sim::SyntheticSourceOptions a{
+      .camera = "red", .fps = 20, .realtime = false, .epoch_mono_ns = epoch};
   ips::sim::SyntheticSourceOptions b = a;
   b.camera = "white";
   ips::sim::SyntheticSource red(published_scene(), a), white(published_scene(), b);
@@ -52,7 +53,9 @@ TEST(SyntheticSource, SourcesOfOneSceneAgreeOnSceneTimeAndTruth) {
         if (d.id != t.id) continue;
         matched = true;
         for (std::size_t i = 0; i < 4; ++i) {
-          EXPECT_LT(std::hypot(d.corners_px[i].x - t.corners_px[i].x, d.corners_px[i].y - t.corners_px[i].y), 0.5);
+          EXPECT_LT(std::hypot(d.corners_px[i].x - t.corners_px[i].x,
+                               d.corners_px[i].y - t.corners_px[i].y),
+                    0.5);
         }
       }
       EXPECT_TRUE(matched) << "marker " << t.id << " not found at frame " << k;
@@ -62,7 +65,9 @@ TEST(SyntheticSource, SourcesOfOneSceneAgreeOnSceneTimeAndTruth) {
 }
 
 TEST(SyntheticSource, RealtimePacingTimesOutBeforeTheFirstFrameIsDue) {
-  ips::sim::SyntheticSourceOptions o{.camera = "black", .fps = 30, .realtime = true,
+  ips::sim::SyntheticSourceOptions o{.camera = "black",
+                                     .fps = 30,
+                                     .realtime = true,
                                      .epoch_mono_ns = ips::monotonic_ns() + 60'000'000'000LL};
   ips::sim::SyntheticSource src(published_scene(), o);
   src.open();
@@ -86,7 +91,8 @@ TEST(SyntheticSource, RealtimeFramesAreNotEarlyAndEndAfterMaxFrames) {
 
 TEST(SyntheticSource, RejectsUnknownCameraAndBadRate) {
   EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "green"}), ips::InputError);
-  EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "red", .fps = 0}), ips::InputError);
+  EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "red", .fps = 0}),
+               ips::InputError);
   ips::sim::SyntheticSource src(published_scene(), {.camera = "red"});
   ips::Frame f;
   EXPECT_THROW(src.read(f, std::chrono::milliseconds(1)), ips::SourceError);

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,11 +26,12 @@ namespace ips::sim {
 /// Exact truth for one marker in one camera at one instant.
 struct MarkerTruth {
   int id = -1;
-  MarkerPose pose;                        ///< world pose
-  bool visible = false;                   ///< all 4 corners in front of the camera and >= 3 px inside the image
-  std::array<Point2, 4> corners_px{};     ///< exact projection of the black square's corners (ArUco order)
-  CameraObservation formula;              ///< the depth formula applied to the exact corners: what a
-                                          ///< perfect detector would report (true xc, yc, zc, yaw)
+  MarkerPose pose;       ///< world pose
+  bool visible = false;  ///< all 4 corners in front of the camera and >= 3 px inside the image
+  std::array<Point2, 4>
+      corners_px{};           ///< exact projection of the black square's corners (ArUco order)
+  CameraObservation formula;  ///< the depth formula applied to the exact corners: what a
+                              ///< perfect detector would report (true xc, yc, zc, yaw)
   Eigen::Vector3d centre_cam = Eigen::Vector3d::Zero();  ///< geometric marker centre, camera frame
 };
 
@@ -41,7 +43,9 @@ struct PlacedMarker {
 
 class CameraRenderer {
  public:
-  /// Precomputes the ray map and background (~0.3 s at 1080p). Keeps a reference to `scene`.
+  /// Precomputes the ray map and background (~1 s of CPU at 1080p; the ray map and noise
+  /// pool are cached per process and shared by renderers of the same camera). Keeps a
+  /// reference to `scene`.
   CameraRenderer(const Scene& scene, std::size_t camera_index);
 
   /// Renders the scene's markers at scene time t (seconds) into `gray` (CV_8UC1, reused).
@@ -66,11 +70,12 @@ class CameraRenderer {
   const Scene& scene_;
   std::size_t camera_index_;
   int width_ = 0, height_ = 0;
-  cv::Mat uv_;          ///< CV_32FC2: normalised coordinates of each pixel centre (NaN: no ray)
+  std::shared_ptr<const cv::Mat>
+      uv_;              ///< CV_32FC2: normalised coords of each pixel centre (NaN: no ray)
   cv::Mat gain_;        ///< CV_32F: vignetting x lighting gradient at each pixel
   cv::Mat background_;  ///< CV_8U: the floor without markers or noise
-  std::vector<std::int8_t> noise_;  ///< Gaussian noise pool, grey levels
-  std::vector<cv::Mat> patterns_;   ///< per scene marker: bits+2 cells square, 0 = black, 1 = white
+  std::shared_ptr<const std::vector<std::int8_t>> noise_;  ///< Gaussian noise pool, grey levels
+  std::vector<cv::Mat> patterns_;  ///< per scene marker: bits+2 cells square, 0 = black, 1 = white
 };
 
 /// JPEG-compresses a greyscale frame; `colour` stores it as a 3-channel YCbCr 4:2:0 JPEG like

@@ -28,19 +28,21 @@ struct MarkerPose {
 struct Trajectory {
   enum class Kind { kStatic, kCircle, kLine, kWaypoints };
   Kind kind = Kind::kStatic;
-  double speed = 0.0;              ///< m/s along the path
-  Eigen::Vector2d center{0, 0};    ///< circle centre, metres
-  double radius = 0.0;             ///< circle radius, metres
-  bool clockwise = false;          ///< circle direction seen from above
-  std::vector<Eigen::Vector2d> points;  ///< line: {from, to} (back and forth); waypoints: closed loop
-  bool heading_follows_path = true;     ///< yaw = direction of travel (+ yaw offset) else fixed yaw
+  double speed = 0.0;            ///< m/s along the path
+  Eigen::Vector2d center{0, 0};  ///< circle centre, metres
+  double radius = 0.0;           ///< circle radius, metres
+  bool clockwise = false;        ///< circle direction seen from above
+  std::vector<Eigen::Vector2d>
+      points;                        ///< line: {from, to} (back and forth); waypoints: closed loop
+  bool heading_follows_path = true;  ///< yaw = direction of travel (+ yaw offset) else fixed yaw
 };
 
 struct SceneMarker {
   int id = 0;
-  double length = 0.20;    ///< black-square edge length L, metres
-  double margin = -1.0;    ///< white border around the black square, metres (<0: one cell, L/(bits+2))
-  MarkerPose start;        ///< pose at t = 0 for static markers; height and yaw offset for moving ones
+  double length = 0.20;  ///< black-square edge length L, metres
+  double margin =
+      -1.0;          ///< white border around the black square, metres (<0: one cell, L/(bits+2))
+  MarkerPose start;  ///< pose at t = 0 for static markers; height and yaw offset for moving ones
   Trajectory trajectory;
 };
 
@@ -48,8 +50,8 @@ struct SceneCamera {
   std::string name;
   std::filesystem::path intrinsics_path;
   CameraModel model;
-  Eigen::Vector3d position{0, 0, 2.1};   ///< optical centre in the world, metres
-  Eigen::Matrix3d R_wc;                  ///< columns: camera x, y, z axes in world coordinates
+  Eigen::Vector3d position{0, 0, 2.1};  ///< optical centre in the world, metres
+  Eigen::Matrix3d R_wc;                 ///< columns: camera x, y, z axes in world coordinates
 
   Eigen::Vector3d world_to_camera(const Eigen::Vector3d& p_world) const {
     return R_wc.transpose() * (p_world - position);
@@ -69,16 +71,16 @@ struct Floor {
 
 /// Image formation settings shared by all cameras of the scene.
 struct RenderSettings {
-  int supersample = 3;          ///< s x s samples per pixel on marker regions (anti-aliasing)
-  double noise_sigma = 2.0;     ///< Gaussian sensor noise, grey levels
-  int jpeg_quality = 90;        ///< 1..100; 0 = deliver frames without JPEG compression
-  double vignetting = 0.35;     ///< brightness loss at the image corner (r^2 fall-off), 0..1
-  double gradient = 0.15;       ///< lighting gradient across the floor along world x, +-fraction
-  double exposure = 0.0;        ///< exposure time for motion blur, seconds (0 = sharp)
-  int blur_samples = 5;         ///< time samples across the exposure when exposure > 0
-  double white = 215.0;         ///< grey level of white marker paper at full illumination
-  double black = 30.0;          ///< grey level of the black marker ink
-  unsigned seed = 1;            ///< noise seed
+  int supersample = 3;       ///< s x s samples per pixel on marker regions (anti-aliasing)
+  double noise_sigma = 2.0;  ///< Gaussian sensor noise, grey levels
+  int jpeg_quality = 90;     ///< 1..100; 0 = deliver frames without JPEG compression
+  double vignetting = 0.35;  ///< brightness loss at the image corner (r^2 fall-off), 0..1
+  double gradient = 0.15;    ///< lighting gradient across the floor along world x, +-fraction
+  double exposure = 0.0;     ///< exposure time for motion blur, seconds (0 = sharp)
+  int blur_samples = 5;      ///< time samples across the exposure when exposure > 0
+  double white = 215.0;      ///< grey level of white marker paper at full illumination
+  double black = 30.0;       ///< grey level of the black marker ink
+  unsigned seed = 1;         ///< noise seed
 };
 
 class Scene {

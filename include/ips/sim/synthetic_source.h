@@ -6,6 +6,10 @@
 // (one per camera) therefore agree on the scene time of any capture time, and the truth of a
 // frame is scene.marker_pose(id, source.scene_time(frame.t_mono_ns)).
 //
+// Buffers: read() renders/decodes into `out.gray`, reusing its buffer when it is the same
+// size, like the other sources: keep a frame beyond the next read() by cloning it (or by
+// passing a fresh Frame).
+//
 // Pacing: `realtime` sleeps until each frame's capture time, like a camera; if rendering
 // falls behind, frames are skipped (sequence numbers jump, as with driver drops). Otherwise
 // frames come as fast as they render, still stamped with their simulated capture times.
@@ -25,12 +29,13 @@
 namespace ips::sim {
 
 struct SyntheticSourceOptions {
-  std::string camera;              ///< camera name in the scene
-  double fps = 30.0;               ///< frame rate, frames per second of scene time
-  bool realtime = true;            ///< pace on CLOCK_MONOTONIC (true) or as fast as possible
-  std::int64_t epoch_mono_ns = 0;  ///< CLOCK_MONOTONIC of scene time 0; 0 = monotonic_ns() at open()
-  std::uint64_t max_frames = 0;    ///< read() returns kEnd after this many frames; 0 = endless
-  bool colour_jpeg = false;        ///< encode as 3-channel MJPEG like a USB camera (slower) or 1-channel
+  std::string camera;    ///< camera name in the scene
+  double fps = 30.0;     ///< frame rate, frames per second of scene time
+  bool realtime = true;  ///< pace on CLOCK_MONOTONIC (true) or as fast as possible
+  std::int64_t epoch_mono_ns =
+      0;                         ///< CLOCK_MONOTONIC of scene time 0; 0 = monotonic_ns() at open()
+  std::uint64_t max_frames = 0;  ///< read() returns kEnd after this many frames; 0 = endless
+  bool colour_jpeg = false;  ///< encode as 3-channel MJPEG like a USB camera (slower) or 1-channel
 };
 
 class SyntheticSource : public FrameSource {
@@ -50,7 +55,9 @@ class SyntheticSource : public FrameSource {
   }
   std::int64_t epoch_mono_ns() const { return epoch_mono_ns_; }
   /// Truth of every scene marker in this camera at a frame's capture time.
-  std::vector<MarkerTruth> truth(std::int64_t t_mono_ns) const { return renderer_.truth(scene_time(t_mono_ns)); }
+  std::vector<MarkerTruth> truth(std::int64_t t_mono_ns) const {
+    return renderer_.truth(scene_time(t_mono_ns));
+  }
   /// The JPEG bytes of the last frame (empty when the scene's jpeg_quality is 0).
   const std::vector<std::uint8_t>& last_jpeg() const { return jpeg_; }
   const CameraRenderer& renderer() const { return renderer_; }
@@ -68,7 +75,7 @@ class SyntheticSource : public FrameSource {
   bool open_ = false;
   std::int64_t epoch_mono_ns_ = 0;
   std::int64_t real_minus_mono_ns_ = 0;
-  std::uint64_t next_ = 0;       ///< index of the next frame
+  std::uint64_t next_ = 0;  ///< index of the next frame
   std::uint64_t delivered_ = 0;
 };
 
