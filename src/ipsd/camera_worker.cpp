@@ -73,8 +73,12 @@ void CameraWorker::run() {
       continue;
     }
     if (status != ips::FrameSource::ReadStatus::kFrame) continue;
-    // Newest frame only: take whatever else is already waiting, counting what is skipped.
-    for (int i = 0; i < kMaxSkip; ++i) {
+    // Newest frame only: while the frame in hand is more than 1.5 frame periods old (a backlog
+    // in the driver's queue, or a simulated camera behind schedule), take the next one that
+    // is already waiting, counting what is skipped. A fresh frame is never read past: for a
+    // source that produces frames on demand that would cost a frame per skip.
+    const auto stale_ns = static_cast<std::int64_t>(1.5e9 / config_.fps);
+    for (int i = 0; i < kMaxSkip && ips::monotonic_ns() - frame.t_mono_ns > stale_ns; ++i) {
       const auto more = supervisor_.read(newer, std::chrono::milliseconds(0));
       if (more == ips::FrameSource::ReadStatus::kCorrupt) {
         ++stats_.corrupt;

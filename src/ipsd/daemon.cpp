@@ -42,18 +42,25 @@ Daemon::Daemon(std::filesystem::path config_path) : config_path_(std::move(confi
 
 Daemon::~Daemon() { stop_pipeline(); }
 
-bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, bool at_start) {
-  auto p = std::make_unique<Pipeline>();
-  const ips::DaemonConfig& config = runtime->config;
+std::vector<ips::SourceFactory> Daemon::make_factories(const ips::DaemonConfig& config) const {
   ips::SourceContext context;
   context.synthetic_epoch_mono_ns = synthetic_epoch_ns_;
+  std::vector<ips::SourceFactory> factories;
+  for (const auto& cam : config.cameras) factories.push_back(ips::make_source_factory(cam, context));
+  return factories;
+}
+
+bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<ips::SourceFactory> factories,
+                            bool at_start) {
+  auto p = std::make_unique<Pipeline>();
+  const ips::DaemonConfig& config = runtime->config;
   for (const auto& cam : config.cameras) {
     p->camera_stats.push_back(std::make_unique<CameraStats>());
     p->camera_ptrs.push_back(p->camera_stats.back().get());
     p->names.push_back(cam.name);
   }
   for (const auto& cam : config.cameras) {
-    p->cameras.push_back(std::make_unique<CameraWorker>(cam, ips::make_source_factory(cam, context), runtime_,
+    p->cameras.push_back(std::make_unique<CameraWorker>(cam, std::move(factories[static_cast<std::size_t>(cam.index)]), runtime_,
                                                         p->queue, *p->camera_stats[static_cast<std::size_t>(cam.index)]));
   }
   runtime_.set(std::move(runtime));
@@ -102,9 +109,10 @@ void Daemon::reload() {
       runtime_.set(fresh);  // the threads pick it up at their next frame
       spdlog::info("reload: applied {} (model file {})", config_path_.string(), config.model_file.string());
     } else {
+      auto factories = make_factories(config);  // may refuse the new cameras: nothing stopped yet
       spdlog::info("reload: the cameras changed, restarting the camera threads");
       stop_pipeline();
-      start_pipeline(fresh, false);
+      start_pipeline(fresh, std::move(factories), false);
     }
   } catch (const ips::InputError& e) {
     spdlog::error("reload refused, keeping the running configuration and model: {}", e.what());
@@ -161,7 +169,7 @@ int Daemon::run() {
 
   started_ns_ = ips::monotonic_ns();
   synthetic_epoch_ns_ = started_ns_;
-  if (!start_pipeline(runtime_.get(), true)) {
+  if (!start_pipeline(runtime_.get(), make_factories(runtime_.get()->config), true)) {
     ::close(sfd);
     return 1;
   }

@@ -27,9 +27,15 @@ class Daemon {
   /// status: 0 after a clean stop, 1 if a `required: true` camera cannot be opened at start.
   int run();
 
+  /// What --check adds to the constructor's checks: every camera's source can be created
+  /// (scene and scene camera exist, V4L2/file options valid). Opens nothing.
+  void check_sources() const { (void)make_factories(runtime_.get()->config); }
+
  private:
   struct Pipeline;
-  bool start_pipeline(std::shared_ptr<const Runtime> runtime, bool at_start);
+  /// One source factory per camera; throws ips::InputError for a camera it cannot serve.
+  std::vector<ips::SourceFactory> make_factories(const ips::DaemonConfig& config) const;
+  bool start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<ips::SourceFactory> factories, bool at_start);
   void stop_pipeline();
   void reload();
   void tick(std::int64_t now);

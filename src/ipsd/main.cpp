@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
     ipsd::Daemon daemon(config);
     if (!log_level.empty()) spdlog::set_level(spdlog::level::from_str(log_level));
     if (check) {
+      daemon.check_sources();
       std::printf("ipsd: %s is valid\n", config.c_str());
       return 0;
     }

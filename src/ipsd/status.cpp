@@ -31,6 +31,8 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
     r.markers = df ? static_cast<double>(markers - p.markers) / static_cast<double>(df) : 0.0;
     p = {frames, detect_ns, markers};
     r.frames = frames;
+    r.detect_ns_total = detect_ns;
+    r.markers_total = markers;
     r.drops = s.drops;
     r.corrupt = s.corrupt;
     r.failures = s.failures;
@@ -94,7 +96,9 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
     j["cameras"].push_back({{"name", c.name}, {"source", c.source}, {"state", c.state}, {"fps", c.fps},
                             {"detect_ms", c.detect_ms}, {"markers", c.markers}, {"frames", c.frames},
                             {"drops", c.drops}, {"corrupt", c.corrupt}, {"errors", c.failures},
-                            {"no_height", c.no_height}, {"last_error", c.last_error}});
+                            {"no_height", c.no_height}, {"last_error", c.last_error},
+                            {"detect_s_total", 1e-9 * static_cast<double>(c.detect_ns_total)},
+                            {"markers_total", c.markers_total}});
   }
   j["outputs"] = nlohmann::json::array();
   std::lock_guard lock(fusion.outputs_mutex);

@@ -18,6 +18,7 @@ TEST(IpsListen, TenThousandRandomDatagramsAreCountedAndTheValidOnesStillDecode) 
   const pid_t pid = test::spawn({test::bin("ips"), "listen", "--bind", "127.0.0.1:" + std::to_string(port), "--json",
                                  "--count", "5", "--duration", "30"},
                                 log);
+  const test::ChildGuard guard(pid);
   // Wait until it is listening.
   for (int i = 0; i < 200 && test::read_file(log).find("listening on") == std::string::npos; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));

@@ -24,6 +24,13 @@
 
 namespace ips::test {
 
+// Sanitizer builds run the daemon (rendering, detection) several times slower: wait longer.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr double kTimeScale = 6.0;
+#else
+constexpr double kTimeScale = 1.0;
+#endif
+
 inline std::string bin(const std::string& name) { return std::string(IPS_BINARY_DIR) + "/" + name; }
 
 /// Starts argv[0] with stdout+stderr appended to `log`. Returns the pid.
@@ -53,6 +60,19 @@ inline std::optional<int> wait_exit(pid_t pid, std::chrono::milliseconds limit) 
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
 }
+
+/// Kills (SIGKILL) and reaps a child that is still running when the scope ends, so that a
+/// failed assertion never leaves a daemon behind.
+struct ChildGuard {
+  pid_t pid;
+  explicit ChildGuard(pid_t p) : pid(p) {}
+  ~ChildGuard() {
+    if (pid > 0 && !wait_exit(pid, std::chrono::milliseconds(0))) {
+      ::kill(pid, SIGKILL);
+      (void)wait_exit(pid, std::chrono::seconds(5));
+    }
+  }
+};
 
 /// Runs to completion (at most `limit`, then killed); returns the exit status.
 inline int run(const std::vector<std::string>& argv, const std::filesystem::path& log,

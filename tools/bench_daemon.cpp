@@ -1,0 +1,248 @@
+// bench_daemon: the real ipsd on 3 synthetic cameras (the published layout, four robots) at
+// 30 fps, measured from outside:
+//   - end-to-end latency capture -> sendto, from every datagram (publish time - capture time,
+//     both CLOCK_REALTIME; the publish time is stamped just before sendto), p50/p99/max;
+//   - capture -> arrival at a local client, for reference;
+//   - CPU per thread (camera threads "cam:<name>", "fusion") from /proc/<pid>/task/*/stat,
+//     as a percentage of one core; a synthetic camera's thread also renders and JPEG-encodes
+//     its frames, so "detect ms" (detect + locate + map per frame, from the daemon's status)
+//     is given apart;
+//   - frames per second, detect ms per frame, markers per frame and drops per camera.
+// Usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "ips/clock.h"
+#include "ips/packet_codec.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+pid_t spawn(const std::vector<std::string>& argv, const fs::path& log) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::FILE* f = std::fopen(log.c_str(), "a");
+    ::dup2(fileno(f), 1);
+    ::dup2(fileno(f), 2);
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+int run(const std::vector<std::string>& argv, const fs::path& log) {
+  const pid_t pid = spawn(argv, log);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// utime + stime (clock ticks) of every thread of `pid`, by thread name.
+std::map<std::string, long> thread_cpu(pid_t pid) {
+  std::map<std::string, long> out;
+  const fs::path task = fs::path("/proc") / std::to_string(pid) / "task";
+  std::error_code ec;
+  for (const auto& t : fs::directory_iterator(task, ec)) {
+    std::ifstream comm_file(t.path() / "comm");
+    std::string comm;
+    std::getline(comm_file, comm);
+    std::ifstream stat_file(t.path() / "stat");
+    std::string stat;
+    std::getline(stat_file, stat);
+    const auto close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream rest(stat.substr(close + 2));
+    std::string field;
+    long utime = 0, stime = 0;
+    for (int i = 3; i <= 15 && rest >> field; ++i) {
+      if (i == 14) utime = std::stol(field);
+      if (i == 15) stime = std::stol(field);
+    }
+    out[comm] += utime + stime;
+  }
+  return out;
+}
+
+std::string read_unix_socket(const std::string& path) {
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  std::string text;
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) {
+    char buf[4096];
+    ssize_t n;
+    while ((n = ::read(fd, buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(n));
+  }
+  ::close(fd);
+  return text;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(std::ceil(p / 100.0 * static_cast<double>(v.size()))) - 1);
+  return v[i];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  double seconds = 20.0, fps = 30.0;
+  const fs::path self = fs::read_symlink("/proc/self/exe");
+  fs::path ipsd = self.parent_path().parent_path() / "ipsd";
+  fs::path ips = self.parent_path().parent_path() / "ips";
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--seconds") seconds = std::stod(argv[i + 1]);
+    else if (a == "--fps") fps = std::stod(argv[i + 1]);
+    else if (a == "--ipsd") ipsd = argv[i + 1];
+    else if (a == "--ips") ips = argv[i + 1];
+    else {
+      std::fprintf(stderr, "usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]\n");
+      return 2;
+    }
+  }
+  const fs::path dir = fs::temp_directory_path() / ("bench_daemon_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path scene = fs::path(IPS_SOURCE_DIR) / "config/scenes/ou2023.yaml";
+  const fs::path log = dir / "setup.log";
+  std::printf("bench_daemon: fitting a plane model on simulated pairs...\n");
+  std::fflush(stdout);
+  if (run({ips.string(), "sim", "collect", "--scene", scene.string(), "--points", "20", "--out", (dir / "pairs.csv").string()}, log) != 0 ||
+      run({ips.string(), "fit", "--data", (dir / "pairs.csv").string(), "--method", "plane", "--out", (dir / "model.json").string()}, log) != 0) {
+    std::fprintf(stderr, "bench_daemon: model setup failed, see %s\n", log.c_str());
+    return 1;
+  }
+
+  // The receiver, on a free loopback port.
+  const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
+  const int rcvbuf = 4 << 20;
+  ::setsockopt(rx, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(rx, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  socklen_t len = sizeof a;
+  ::getsockname(rx, reinterpret_cast<sockaddr*>(&a), &len);
+
+  const std::string socket_path = (dir / "status.sock").string();
+  std::ofstream(dir / "ipsd.yaml")
+      << "cameras:\n"
+      << "  - {name: red, source: synthetic, scene: " << scene.string() << ", fps: " << fps << "}\n"
+      << "  - {name: white, source: synthetic, scene: " << scene.string() << ", fps: " << fps << "}\n"
+      << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps << "}\n"
+      << "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n    3: {height: 0.0, edge_length: 0.15}\n"
+      << "    4: {height: 0.05}\n"
+      << "model_file: model.json\n"
+      << "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " << ntohs(a.sin_port) << ", format: binary}\n"
+      << "status: {interval: 0, socket: " << socket_path << "}\n";
+  const fs::path daemon_log = dir / "ipsd.log";
+  const pid_t pid = spawn({ipsd.string(), "--config", (dir / "ipsd.yaml").string()}, daemon_log);
+
+  auto receive_for = [&](double s, std::vector<double>* to_send, std::vector<double>* to_arrive, std::size_t* markers) {
+    const std::int64_t end = ips::monotonic_ns() + static_cast<std::int64_t>(s * 1e9);
+    std::vector<std::uint8_t> buf(65536);
+    std::size_t n_dgrams = 0;
+    while (ips::monotonic_ns() < end) {
+      pollfd p{rx, POLLIN, 0};
+      if (::poll(&p, 1, 100) != 1) continue;
+      const ssize_t n = ::recv(rx, buf.data(), buf.size(), 0);
+      const std::int64_t arrival = ips::realtime_ns();
+      if (n <= 0) continue;
+      try {
+        const ips::Datagram d = ips::decode_datagram(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)));
+        ++n_dgrams;
+        if (to_send) to_send->push_back(1e-6 * static_cast<double>(d.publish_realtime_ns - d.capture_realtime_ns));
+        if (to_arrive) to_arrive->push_back(1e-6 * static_cast<double>(arrival - d.capture_realtime_ns));
+        if (markers) *markers += d.markers.size();
+      } catch (const std::exception&) {
+      }
+    }
+    return n_dgrams;
+  };
+
+  // Warm-up: the cameras open (renderer precomputation) and the first frames flow.
+  std::printf("bench_daemon: ipsd pid %d, 3 synthetic cameras at %.0f fps; warming up...\n", pid, fps);
+  std::fflush(stdout);
+  const std::int64_t warm_end = ips::monotonic_ns() + 30'000'000'000LL;
+  while (ips::monotonic_ns() < warm_end && receive_for(0.5, nullptr, nullptr, nullptr) == 0) {
+  }
+  receive_for(2.0, nullptr, nullptr, nullptr);
+  const auto status0 = nlohmann::json::parse(read_unix_socket(socket_path), nullptr, false);
+
+  const long ticks = ::sysconf(_SC_CLK_TCK);
+  const auto cpu0 = thread_cpu(pid);
+  const std::int64_t t0 = ips::monotonic_ns();
+  std::vector<double> to_send, to_arrive;
+  std::size_t markers = 0;
+  const std::size_t datagrams = receive_for(seconds, &to_send, &to_arrive, &markers);
+  const double wall = 1e-9 * static_cast<double>(ips::monotonic_ns() - t0);
+  const auto cpu1 = thread_cpu(pid);
+  const auto status = nlohmann::json::parse(read_unix_socket(socket_path), nullptr, false);
+  ::kill(pid, SIGTERM);
+  int ws = 0;
+  ::waitpid(pid, &ws, 0);
+  ::close(rx);
+
+  std::printf("\nbench_daemon: %.1f s measured, %zu datagrams (%.1f/s), %.2f markers per datagram\n", wall, datagrams,
+              static_cast<double>(datagrams) / wall, datagrams ? static_cast<double>(markers) / static_cast<double>(datagrams) : 0.0);
+  std::printf("latency capture -> sendto   p50 %7.1f ms   p99 %7.1f ms   max %7.1f ms\n", percentile(to_send, 50),
+              percentile(to_send, 99), percentile(to_send, 100));
+  std::printf("latency capture -> client   p50 %7.1f ms   p99 %7.1f ms   max %7.1f ms\n", percentile(to_arrive, 50),
+              percentile(to_arrive, 99), percentile(to_arrive, 100));
+  std::printf("%-12s %8s %8s %10s %8s %8s\n", "thread", "CPU %", "fps", "detect ms", "markers", "drops");
+  long total = 0;
+  for (const auto& [name, t1] : cpu1) {
+    const long used = t1 - (cpu0.count(name) ? cpu0.at(name) : 0);
+    total += used;
+    const double pct = 100.0 * static_cast<double>(used) / static_cast<double>(ticks) / wall;
+    if (name.rfind("cam:", 0) == 0 && status.is_object()) {
+      for (std::size_t i = 0; i < status["cameras"].size(); ++i) {
+        const auto& c = status["cameras"][i];
+        if ("cam:" + c.value("name", "") != name) continue;
+        // Everything over the measured window (differences of the daemon's cumulative counters).
+        const auto& c0 = status0.is_object() ? status0["cameras"][i] : c;
+        const auto frames = c.value("frames", 0ULL) - c0.value("frames", 0ULL);
+        const auto drops = c.value("drops", 0ULL) - c0.value("drops", 0ULL);
+        const double detect_s = c.value("detect_s_total", 0.0) - c0.value("detect_s_total", 0.0);
+        const auto found = c.value("markers_total", 0ULL) - c0.value("markers_total", 0ULL);
+        const double per_frame = frames ? 1.0 / static_cast<double>(frames) : 0.0;
+        std::printf("%-12s %8.1f %8.1f %10.1f %8.2f %8llu\n", name.c_str(), pct, static_cast<double>(frames) / wall,
+                    1e3 * detect_s * per_frame, static_cast<double>(found) * per_frame,
+                    static_cast<unsigned long long>(drops));
+      }
+    } else {
+      std::printf("%-12s %8.1f\n", name.c_str(), pct);
+    }
+  }
+  std::printf("%-12s %8.1f   (%u hardware threads)\n", "ipsd total", 100.0 * static_cast<double>(total) / static_cast<double>(ticks) / wall,
+              std::thread::hardware_concurrency());
+  fs::remove_all(dir);
+  return 0;
+}
