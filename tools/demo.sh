@@ -12,8 +12,9 @@ cd "$(dirname "$0")/.."
 duration=${1:-0}
 
 bash tools/setup.sh
-cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPS_BUILD_TESTS=OFF >/dev/null
-cmake --build build/release -j "$(nproc)"
+# Same tree as tools/test.sh's release build; only the two programs are built here.
+cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF >/dev/null
+cmake --build build/release -j "$(nproc)" --target ips_tool ipsd
 
 bin=build/release
 mkdir -p build/demo

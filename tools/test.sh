@@ -15,10 +15,10 @@ configs=${IPS_TEST_CONFIGS:-"release asan"}
 for config in $configs; do
   build="build/$config"
   case "$config" in
-    release) flags=(-DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF) ;;
+    release) flags=(-DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF -DIPS_BUILD_TESTS=ON) ;;
     # -O1 keeps image-heavy tests quick under the sanitizers without hiding errors.
     asan)    flags=(-DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-g -O1" "-DCMAKE_C_FLAGS_DEBUG=-g -O1"
-                    -DIPS_SANITIZE=ON -DIPS_BUILD_BENCHMARKS=OFF) ;;
+                    -DIPS_SANITIZE=ON -DIPS_BUILD_TESTS=ON -DIPS_BUILD_BENCHMARKS=OFF) ;;
     *) echo "test.sh: unknown configuration '$config' (release|asan)" >&2; exit 2 ;;
   esac
   echo "=== $config: configure + build ($build) ==="
