@@ -3,30 +3,15 @@
 #include <memory>
 
 #include "ips/error.h"
-
-#if __has_include("ips/sim/synthetic_source.h")
-#include "ips/sim/synthetic_source.h"
-#define IPS_HAVE_SYNTHETIC 1
-#endif
-#if __has_include("ips/v4l2_source.h")
-#include "ips/v4l2_source.h"
-#define IPS_HAVE_V4L2 1
-#endif
-#if __has_include("ips/file_source.h")
 #include "ips/file_source.h"
-#define IPS_HAVE_FILE 1
-#endif
+#include "ips/sim/synthetic_source.h"
+#include "ips/v4l2_source.h"
 
 namespace ips {
 
 namespace {
 std::string where(const CameraConfig& c) { return "cameras[" + std::to_string(c.index) + "]"; }
 
-[[noreturn]] void not_built(const CameraConfig& c) {
-  throw InputError(where(c) + ".source: '" + to_string(c.source) + "' sources are not part of this build");
-}
-
-#ifdef IPS_HAVE_SYNTHETIC
 // The scene of a synthetic camera, checked to have the camera; errors name the key.
 sim::Scene load_scene(const CameraConfig& c) {
   sim::Scene scene;
@@ -42,13 +27,11 @@ sim::Scene load_scene(const CameraConfig& c) {
   }
   return scene;
 }
-#endif
 }  // namespace
 
 SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& context) {
   switch (c.source) {
     case SourceKind::kSynthetic: {
-#ifdef IPS_HAVE_SYNTHETIC
       const auto scene = std::make_shared<const sim::Scene>(load_scene(c));
       sim::SyntheticSourceOptions o;
       o.camera = c.scene_camera;
@@ -56,13 +39,8 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
       o.realtime = true;
       o.epoch_mono_ns = context.synthetic_epoch_mono_ns;
       return [scene, o] { return std::make_unique<sim::SyntheticSource>(scene, o); };
-#else
-      (void)context;
-      not_built(c);
-#endif
     }
     case SourceKind::kV4l2: {
-#ifdef IPS_HAVE_V4L2
       V4L2Options o;
       o.device = c.device;
       o.width = c.width;
@@ -81,12 +59,8 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
         throw InputError(where(c) + ": " + e.what());
       }
       return [o] { return std::make_unique<V4L2Source>(o); };
-#else
-      not_built(c);
-#endif
     }
     case SourceKind::kFile: {
-#ifdef IPS_HAVE_FILE
       FileSourceOptions o;
       o.path = c.path.string();
       o.fps = c.fps;
@@ -97,12 +71,9 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
         throw InputError(where(c) + ": " + e.what());
       }
       return [o] { return std::make_unique<FileSource>(o); };
-#else
-      not_built(c);
-#endif
     }
   }
-  not_built(c);
+  throw InputError(where(c) + ".source: unknown source kind");  // unreachable: the enum is exhaustive
 }
 
 CameraModel load_intrinsics(const CameraConfig& c) {
@@ -113,12 +84,10 @@ CameraModel load_intrinsics(const CameraConfig& c) {
       throw InputError(where(c) + ".intrinsics: " + e.what());
     }
   }
-#ifdef IPS_HAVE_SYNTHETIC
   if (c.source == SourceKind::kSynthetic) {
     const sim::Scene scene = load_scene(c);
     return scene.cameras.at(scene.camera_index(c.scene_camera)).model;
   }
-#endif
   throw InputError(where(c) + ".intrinsics: required key is missing");
 }
 
