@@ -35,13 +35,18 @@ class Reader {
       if (required) fail(parent, path + key, "missing");
       return def;
     }
+    return finite(n, path + key);
+  }
+
+  /// A scalar that must be a finite number; errors name `key` and the node's line.
+  double finite(const YAML::Node& n, const std::string& key) const {
     double v = 0.0;
     try {
       v = n.as<double>();
     } catch (const YAML::Exception&) {
-      fail(n, path + key, "not a number");
+      fail(n, key, "not a number");
     }
-    if (!std::isfinite(v)) fail(n, path + key, "not finite");
+    if (!std::isfinite(v)) fail(n, key, "not finite");
     return v;
   }
 
@@ -55,16 +60,7 @@ class Reader {
                (max_n != min_n ? ".." + std::to_string(max_n) : std::string()) + " numbers");
     }
     std::vector<double> out;
-    for (const auto& v : n) {
-      double x = 0.0;
-      try {
-        x = v.as<double>();
-      } catch (const YAML::Exception&) {
-        fail(v, path + key, "not a number");
-      }
-      if (!std::isfinite(x)) fail(v, path + key, "not finite");
-      out.push_back(x);
-    }
+    for (const auto& v : n) out.push_back(finite(v, path + key));
     return out;
   }
 
