@@ -33,6 +33,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "child_process.h"
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
 
@@ -40,27 +41,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-pid_t spawn(const std::vector<std::string>& argv, const fs::path& log) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    std::FILE* f = std::fopen(log.c_str(), "a");
-    ::dup2(fileno(f), 1);
-    ::dup2(fileno(f), 2);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-int run(const std::vector<std::string>& argv, const fs::path& log) {
-  const pid_t pid = spawn(argv, log);
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using ips::support::read_unix_socket;
+using ips::support::run;
+using ips::support::spawn;
 
 // utime + stime (clock ticks) of every thread of `pid`, by thread name.
 std::map<std::string, long> thread_cpu(pid_t pid) {
@@ -86,21 +69,6 @@ std::map<std::string, long> thread_cpu(pid_t pid) {
     out[comm] += utime + stime;
   }
   return out;
-}
-
-std::string read_unix_socket(const std::string& path) {
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-  std::string text;
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) {
-    char buf[4096];
-    ssize_t n;
-    while ((n = ::read(fd, buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(n));
-  }
-  ::close(fd);
-  return text;
 }
 
 double percentile(std::vector<double> v, double p) {

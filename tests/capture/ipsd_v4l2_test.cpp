@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "emu_control.h"
+#include "child_process.h"
 #include "emu_harness.h"
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
@@ -163,12 +164,7 @@ TEST_F(IpsdOnEmulatedCameras, StreamsBothCamerasSurvivesUnplugAndResumesAfterRep
   const pid_t pid = ips::test::spawn_emulated(
       {std::string(IPS_BINARY_DIR) + "/ipsd", "--config", dir_ / "ipsd.yaml"}, devices, log, log);
   ASSERT_GT(pid, 0);
-  struct Stopper {  // never leave the daemon running, whatever fails
-    pid_t pid;
-    ~Stopper() {
-      if (pid > 0 && ::kill(pid, SIGKILL) == 0) ::waitpid(pid, nullptr, 0);
-    }
-  } stopper{pid};
+  const ips::support::ChildGuard stopper(pid);  // never leave the daemon running, whatever fails
 
   // 1. Both cameras stream, and every position matches the truth.
   int seen_by[2] = {0, 0};
@@ -234,10 +230,7 @@ TEST_F(IpsdOnEmulatedCameras, StreamsBothCamerasSurvivesUnplugAndResumesAfterRep
   EXPECT_EQ(attempts_logged, 1) << text;
 
   ASSERT_EQ(::kill(pid, SIGTERM), 0);
-  int status = 0;
-  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-  stopper.pid = -1;
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_text(log);
+  EXPECT_EQ(ips::support::wait_exit(pid, std::chrono::seconds(30)), std::optional<int>(0)) << read_text(log);
 }
 
 }  // namespace
