@@ -214,7 +214,7 @@ TEST(PacketCodec, MalformedDatagramsAreRefusedWithAReason) {
   no_x.replace(no_x.find("\"x\""), 3, "\"q\"");
   expect_refused(js(no_x), "missing field 'x'");
   std::string bad_seq = j;
-  bad_seq.replace(bad_seq.find("\"seq\":") + 6, 0, "-");
+  bad_seq.insert(bad_seq.find("\"seq\":") + 6, 1, '-');
   expect_refused(js(bad_seq), "'seq' out of range");
 }
 
