@@ -56,6 +56,11 @@ int open_socket(const ListenOptions& o) {
   sockaddr_in addr = parse_endpoint(multicast ? o.group : o.bind, multicast ? "--group" : "--bind");
   if (multicast && !IN_MULTICAST(ntohl(addr.sin_addr.s_addr)))
     throw ips::InputError("--group: '" + o.group + "' is not a multicast group (224.0.0.0/4)");
+  ip_mreq mreq{};
+  mreq.imr_multiaddr = addr.sin_addr;
+  mreq.imr_interface.s_addr = htonl(INADDR_ANY);
+  if (!o.interface.empty() && ::inet_pton(AF_INET, o.interface.c_str(), &mreq.imr_interface) != 1)
+    throw ips::InputError("--interface: '" + o.interface + "' is not an IPv4 address");
   const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (fd < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
   const int on = 1;
@@ -70,11 +75,6 @@ int open_socket(const ListenOptions& o) {
     throw std::runtime_error("bind " + (multicast ? o.group : o.bind) + ": " + std::strerror(err));
   }
   if (multicast) {
-    ip_mreq mreq{};
-    mreq.imr_multiaddr = addr.sin_addr;
-    mreq.imr_interface.s_addr = htonl(INADDR_ANY);
-    if (!o.interface.empty() && ::inet_pton(AF_INET, o.interface.c_str(), &mreq.imr_interface) != 1)
-      throw ips::InputError("--interface: '" + o.interface + "' is not an IPv4 address");
     if (::setsockopt(fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof mreq) != 0) {
       const int err = errno;
       ::close(fd);
