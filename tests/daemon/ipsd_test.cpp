@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <map>
 #include <random>
 #include <regex>
 
@@ -216,6 +217,55 @@ TEST_F(IpsdTest, StreamMatchesTheSimulatorsTruthAndSurvivesABadReload) {
   EXPECT_EQ(*code, 0) << test::read_file(log);
   EXPECT_LT(stop_s, 2.0 * test::kTimeScale);
   EXPECT_NE(test::read_file(log).find("status red:"), std::string::npos) << "no periodic status line";
+}
+
+// With fusion.kalman.enabled the stream carries velocity: after a short warm-up it follows
+// the simulated robots' true velocity (the derivative of their trajectories) and the
+// filtered positions stay on the truth.
+TEST_F(IpsdTest, KalmanStreamCarriesTheRobotsTrueVelocity) {
+  test::UdpReceiver rx;
+  const fs::path cfg = *dir_ / "ipsd_kalman.yaml";
+  std::string c = config(rx.port, "model.json");
+  c.replace(c.find("fusion: {"), std::string("fusion: {").size(), "fusion: {kalman: {enabled: true}, ");
+  std::ofstream(cfg) << c;
+  const fs::path log = *dir_ / "ipsd_kalman.log";
+  const pid_t pid = test::spawn({test::bin("ipsd"), "--config", cfg.string()}, log);
+  const test::ChildGuard guard(pid);
+
+  ASSERT_EQ(receive(rx, 20.0, 1).size(), 1u) << test::read_file(log);
+  const auto got = receive(rx, 9.0, 36);
+  ASSERT_GE(got.size(), 12u) << test::read_file(log);
+  const auto status = nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()));
+  const std::int64_t epoch = status["synthetic_epoch_mono_ns"];
+  const auto scene = sim::Scene::load(*dir_ / "scene.yaml");
+
+  std::map<std::uint32_t, int> updates_of;  // warm-up: the first 2 s of each track
+  std::vector<double> speed_err;
+  double worst_pos = 0.0;
+  for (const auto& [d, arrival] : got) {
+    EXPECT_TRUE(d.has_velocity);
+    for (const auto& m : d.markers) {
+      const double t = 1e-9 * static_cast<double>(d.capture_monotonic_ns - epoch + 1000LL * m.dt_us);
+      const sim::MarkerPose a = scene.marker_pose(static_cast<int>(m.id), t - 0.01);
+      const sim::MarkerPose b = scene.marker_pose(static_cast<int>(m.id), t + 0.01);
+      const sim::MarkerPose truth = scene.marker_pose(static_cast<int>(m.id), t);
+      worst_pos = std::max(worst_pos, std::hypot(m.x - truth.x, m.y - truth.y));
+      if (++updates_of[m.id] <= static_cast<int>(2 * kFps)) continue;
+      speed_err.push_back(std::hypot(m.vx - (b.x - a.x) / 0.02, m.vy - (b.y - a.y) / 0.02));
+      EXPECT_NEAR(m.vz, 0.0, 0.05);  // the robots drive on the floor
+    }
+  }
+  ASSERT_GE(speed_err.size(), 8u) << test::read_file(log);
+  std::sort(speed_err.begin(), speed_err.end());
+  const double median = speed_err[speed_err.size() / 2];
+  std::printf("[ ipsd    ] Kalman: %zu velocities after warm-up, error median %.3f max %.3f m/s; "
+              "worst position error %.2f cm\n",
+              speed_err.size(), median, speed_err.back(), worst_pos * 100);
+  // The robots move at 0.25-0.3 m/s; line 2 turns back at its ends (an instant reversal).
+  EXPECT_LT(median, 0.05);
+  EXPECT_LT(worst_pos, 0.03);
+  ASSERT_EQ(::kill(pid, SIGTERM), 0);
+  EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(10)), std::optional<int>(0)) << test::read_file(log);
 }
 
 TEST_F(IpsdTest, AnAbsentCameraIsRetriedUnlessRequired) {
