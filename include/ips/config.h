@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "ips/detector.h"
 #include "ips/kalman.h"
 #include "ips/marker_geometry.h"
 #include "ips/packet_codec.h"
@@ -107,6 +108,8 @@ struct DaemonConfig {
   std::filesystem::path file;  ///< where it was loaded from (for messages)
   std::vector<CameraConfig> cameras;
   MarkerConfig markers;
+  /// detection: the detector's tuning; `dictionary` is copied from markers.dictionary.
+  DetectorOptions detection;
   std::filesystem::path model_file;  ///< required
   FusionConfig fusion;
   std::vector<OutputConfig> outputs;

@@ -76,6 +76,8 @@ struct DetectorOptions {
   /// cornerSubPix stops after this many iterations or when a corner moves < refine_epsilon_px.
   int refine_max_iterations = 30;
   double refine_epsilon_px = 0.005;
+
+  bool operator==(const DetectorOptions&) const = default;
 };
 
 class Detector {

@@ -241,6 +241,58 @@ MarkerConfig parse_markers(const YAML::Node& n, const std::string& file) {
   return m;
 }
 
+// detection: the detector's tuning (DetectorOptions); the dictionary comes from markers.
+DetectorOptions parse_detection(const YAML::Node& n, const std::string& file) {
+  MapReader r(n, "detection", file);
+  DetectorOptions d;
+  auto int_in = [&](const std::string& k, int& value, int lo, int hi) {
+    r.get(k, value);
+    if (r.has(k) && (value < lo || value > hi))
+      r.fail(r.raw()[k], r.key(k), "must be " + std::to_string(lo) + ".." + std::to_string(hi));
+  };
+  auto number_in = [&](const std::string& k, double& value, double lo, double hi) {
+    r.get(k, value);
+    if (r.has(k) && !(value >= lo && value <= hi)) {
+      std::ostringstream range;
+      range << lo << ".." << hi;
+      r.fail(r.raw()[k], r.key(k), "must be " + range.str());
+    }
+  };
+  int_in("detect_scale", d.detect_scale, 1, 8);
+  if (r.has("threshold_windows")) {
+    const YAML::Node w = r.node("threshold_windows");
+    if (!w.IsSequence() || w.size() == 0)
+      r.fail(w, "detection.threshold_windows", "expected a non-empty list of odd window sizes, e.g. [9] or [9, 19]");
+    d.threshold_windows.clear();
+    for (std::size_t i = 0; i < w.size(); ++i) {
+      const std::string key = "detection.threshold_windows[" + std::to_string(i) + "]";
+      int v = 0;
+      try {
+        v = w[i].as<int>();
+      } catch (const YAML::Exception&) {
+        r.fail(w[i], key, "expected an integer");
+      }
+      if (v < 3 || v % 2 == 0 || v > 255) r.fail(w[i], key, "window sizes must be odd, 3..255");
+      d.threshold_windows.push_back(v);
+    }
+  }
+  number_in("threshold_constant", d.threshold_constant, 0.0, 255.0);
+  r.get_number("min_perimeter_px", d.min_perimeter_px, 0.0, true);
+  r.get_number("max_perimeter_rate", d.max_perimeter_rate, 0.0, true);
+  number_in("error_correction_rate", d.error_correction_rate, 0.0, 1.0);
+  number_in("max_border_error_rate", d.max_border_error_rate, 0.0, 1.0);
+  int_in("max_ambiguous_cells", d.max_ambiguous_cells, -1, 1000);
+  number_in("cell_ambiguity", d.cell_ambiguity, 0.0, 0.5);
+  number_in("min_contrast", d.min_contrast, 0.0, 255.0);
+  d.refinement = pick<CornerRefinement>(
+      r, "refinement",
+      {{"edges", CornerRefinement::kEdges}, {"subpix", CornerRefinement::kSubPix}, {"none", CornerRefinement::kNone}},
+      d.refinement, false);
+  int_in("refine_half_window_px", d.refine_half_window_px, 1, 32);
+  r.finish();
+  return d;
+}
+
 OutputConfig parse_output(const YAML::Node& n, int index, const std::string& file) {
   MapReader r(n, "outputs[" + std::to_string(index) + "]", file);
   OutputConfig o;
@@ -298,6 +350,13 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   }
 
   if (r.has("markers")) c.markers = parse_markers(r.node("markers"), file);
+  if (r.has("detection")) c.detection = parse_detection(r.node("detection"), file);
+  try {
+    (void)dictionary_id(c.markers.dictionary);
+  } catch (const InputError& e) {
+    r.fail(root["markers"]["dictionary"], "markers.dictionary", e.what());
+  }
+  c.detection.dictionary = c.markers.dictionary;
   r.get_path("model_file", c.model_file, base, true);
 
   if (r.has("fusion")) {

@@ -10,6 +10,7 @@
 #include "command.h"
 #include "image_io.h"
 #include "ips/camera_model.h"
+#include "ips/config.h"
 #include "ips/detector.h"
 #include "ips/error.h"
 #include "ips/marker_geometry.h"
@@ -23,6 +24,7 @@ struct LocateArgs {
   double marker_length = 0.20;
   std::vector<std::string> marker_sizes;  // "ID=LENGTH"
   std::string dictionary = "DICT_4X4_100";
+  std::string config;  // an ipsd configuration: its detection + markers sections
   std::string model;
   std::string camera;
   double height = 0.0;
@@ -52,7 +54,16 @@ ips::MarkerSizes parse_sizes(const LocateArgs& a) {
 }
 
 int run_locate(const LocateArgs& a) {
-  const ips::MarkerSizes sizes = parse_sizes(a);
+  ips::MarkerSizes sizes;
+  ips::DetectorOptions options;
+  if (!a.config.empty()) {  // the daemon's own settings, to see what it sees
+    const ips::DaemonConfig config = ips::load_config(a.config);
+    sizes = config.markers.sizes();
+    options = config.detection;
+  } else {
+    sizes = parse_sizes(a);
+    options.dictionary = a.dictionary;
+  }
   const ips::CameraModel camera = ips::CameraModel::load(a.intrinsics);
   ips::ModelSet models;
   const ips::Mapper* mapper = nullptr;
@@ -66,8 +77,6 @@ int run_locate(const LocateArgs& a) {
   } else if (!a.camera.empty()) {
     throw ips::InputError("--camera is only used with --model");
   }
-  ips::DetectorOptions options;
-  options.dictionary = a.dictionary;
   ips::Detector detector(options);
   const cv::Mat gray = ips::cli::read_gray_image(a.image);
   if (gray.size() != camera.size()) {
@@ -115,11 +124,17 @@ IPS_REGISTER_COMMAND(
       sub.add_option("--intrinsics", a->intrinsics,
                      "Camera intrinsics (ipsd YAML or OpenCV calibration file)")
           ->required();
-      sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")
-          ->capture_default_str();
-      sub.add_option("--marker-size", a->marker_sizes,
-                     "Per-marker edge length ID=METRES (repeatable)");
-      sub.add_option("--dictionary", a->dictionary, "ArUco dictionary")->capture_default_str();
+      auto* length = sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")
+                         ->capture_default_str();
+      auto* size = sub.add_option("--marker-size", a->marker_sizes,
+                                  "Per-marker edge length ID=METRES (repeatable)");
+      auto* dict = sub.add_option("--dictionary", a->dictionary, "ArUco dictionary")->capture_default_str();
+      sub.add_option("--config", a->config,
+                     "An ipsd configuration: use its markers and detection settings (instead of "
+                     "--marker-length, --marker-size, --dictionary)")
+          ->excludes(length)
+          ->excludes(size)
+          ->excludes(dict);
       sub.add_option("--model", a->model, "Model file: also print world coordinates");
       sub.add_option("--camera", a->camera, "The camera's name in the model file");
       sub.add_option("--height", a->height,

@@ -98,11 +98,8 @@ void CameraWorker::run() {
 void CameraWorker::process(ips::Frame& frame) {
   const std::shared_ptr<const Runtime> rt = runtime_.get();
   const int index = config_.index;
-  if (!detector_ || dictionary_ != rt->config.markers.dictionary) {  // first frame, or a reload changed it
-    ips::DetectorOptions options;
-    options.dictionary = rt->config.markers.dictionary;
-    detector_ = std::make_unique<ips::Detector>(options);
-    dictionary_ = options.dictionary;
+  if (!detector_ || detector_->options() != rt->config.detection) {  // first frame, or a reload changed it
+    detector_ = std::make_unique<ips::Detector>(rt->config.detection);
   }
   const ips::CameraModel& intrinsics = rt->intrinsics[static_cast<std::size_t>(index)];
   const std::int64_t t0 = ips::monotonic_ns();

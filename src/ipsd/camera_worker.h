@@ -36,7 +36,6 @@ class CameraWorker {
   ObservationQueue& queue_;
   CameraStats& stats_;
   std::unique_ptr<ips::Detector> detector_;  // used by the camera thread only
-  std::string dictionary_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

@@ -75,6 +75,55 @@ TEST_F(ConfigTest, MinimalConfigGetsTheDocumentedDefaults) {
   EXPECT_EQ(c.log_level, "info");
   EXPECT_DOUBLE_EQ(c.status.interval_s, 10.0);
   EXPECT_EQ(c.status.socket, "");
+  EXPECT_EQ(c.detection, DetectorOptions{});  // the library's defaults, documented in detector.h
+}
+
+TEST_F(ConfigTest, DetectionSectionTunesTheDetector) {
+  const DaemonConfig c = parse(std::string(kMinimal) + R"(markers: {dictionary: DICT_5X5_100}
+detection:
+  detect_scale: 1
+  threshold_windows: [9, 19]
+  threshold_constant: 10
+  min_perimeter_px: 80
+  max_perimeter_rate: 2
+  error_correction_rate: 0.3
+  max_border_error_rate: 0.2
+  max_ambiguous_cells: -1
+  cell_ambiguity: 0.25
+  min_contrast: 40
+  refinement: subpix
+  refine_half_window_px: 3
+)");
+  const DetectorOptions& d = c.detection;
+  EXPECT_EQ(d.dictionary, "DICT_5X5_100");  // from markers.dictionary
+  EXPECT_EQ(d.detect_scale, 1);
+  EXPECT_EQ(d.threshold_windows, (std::vector<int>{9, 19}));
+  EXPECT_DOUBLE_EQ(d.threshold_constant, 10);
+  EXPECT_DOUBLE_EQ(d.min_perimeter_px, 80);
+  EXPECT_DOUBLE_EQ(d.max_perimeter_rate, 2);
+  EXPECT_DOUBLE_EQ(d.error_correction_rate, 0.3);
+  EXPECT_DOUBLE_EQ(d.max_border_error_rate, 0.2);
+  EXPECT_EQ(d.max_ambiguous_cells, -1);
+  EXPECT_DOUBLE_EQ(d.cell_ambiguity, 0.25);
+  EXPECT_DOUBLE_EQ(d.min_contrast, 40);
+  EXPECT_EQ(d.refinement, CornerRefinement::kSubPix);
+  EXPECT_EQ(d.refine_half_window_px, 3);
+  EXPECT_NO_THROW(Detector{d});
+}
+
+TEST_F(ConfigTest, BadDetectionSettingsAndDictionaryNamesAreRefusedWithTheirPlace) {
+  const std::string m = kMinimal;
+  expect_error(m + "markers: {dictionary: DICT_4x4_100}\n",
+               {"ipsd.yaml:7:23: markers.dictionary: unknown ArUco dictionary 'DICT_4x4_100'", "DICT_4X4_100"});
+  expect_error(m + "detection: {threshold_windows: [9, 10]}\n", {"ipsd.yaml:7:", "detection.threshold_windows[1]: window sizes must be odd"});
+  expect_error(m + "detection: {threshold_windows: []}\n", {"detection.threshold_windows: expected a non-empty list"});
+  expect_error(m + "detection: {threshold_windows: 9}\n", {"detection.threshold_windows: expected a non-empty list"});
+  expect_error(m + "detection: {detect_scale: 0}\n", {"detection.detect_scale: must be 1..8"});
+  expect_error(m + "detection: {refinement: cornersubpix}\n", {"detection.refinement: unknown value 'cornersubpix' (edges|subpix|none)"});
+  expect_error(m + "detection: {min_perimeter_px: -5}\n", {"detection.min_perimeter_px: must be > 0"});
+  expect_error(m + "detection: {error_correction_rate: 1.5}\n", {"detection.error_correction_rate: must be 0..1"});
+  expect_error(m + "detection: {min_contrast: lots}\n", {"detection.min_contrast: expected a number, got 'lots'"});
+  expect_error(m + "detection: {threshold_window: [9]}\n", {"detection.threshold_window: unknown key"});
 }
 
 TEST_F(ConfigTest, FullConfigIsReadKeyByKey) {

@@ -221,8 +221,8 @@ TEST_F(IpsdTest, StreamMatchesTheSimulatorsTruthAndSurvivesABadReload) {
 
 // With fusion.kalman.enabled the stream carries velocity: after a short warm-up it follows
 // the simulated robots' true velocity (the derivative of their trajectories) and the
-// filtered positions stay on the truth.
-TEST_F(IpsdTest, KalmanStreamCarriesTheRobotsTrueVelocity) {
+// filtered positions stay on the truth. Then the detection section is reloaded.
+TEST_F(IpsdTest, KalmanStreamCarriesTheRobotsTrueVelocityAndDetectionSettingsReload) {
   test::UdpReceiver rx;
   const fs::path cfg = *dir_ / "ipsd_kalman.yaml";
   std::string c = config(rx.port, "model.json");
@@ -264,6 +264,35 @@ TEST_F(IpsdTest, KalmanStreamCarriesTheRobotsTrueVelocity) {
   // The robots move at 0.25-0.3 m/s; line 2 turns back at its ends (an instant reversal).
   EXPECT_LT(median, 0.05);
   EXPECT_LT(worst_pos, 0.03);
+
+  // SIGHUP with detection settings no marker passes (a perimeter larger than the frame):
+  // the cameras take them at their next frame and the markers disappear; back to the
+  // defaults, they return.
+  auto reload_and_count_markers = [&](const std::string& config_text, const char* what) {
+    std::ofstream(cfg) << config_text;
+    const std::size_t applied_before = test::read_file(log).find("reload: applied") == std::string::npos ? 0 : 1;
+    ASSERT_EQ(::kill(pid, SIGHUP), 0);
+    for (int i = 0; i < 100 * test::kTimeScale; ++i) {
+      const std::string text = test::read_file(log);
+      std::size_t n = 0;
+      for (auto p = text.find("reload: applied"); p != std::string::npos; p = text.find("reload: applied", p + 1)) ++n;
+      if (n > applied_before) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    (void)receive(rx, 1.0, 1000);  // frames already in the pipeline
+    std::size_t markers = 0;
+    for (const auto& r : receive(rx, 3.0, 1000)) markers += r.d.markers.size();
+    if (std::string(what) == "none") {
+      EXPECT_EQ(markers, 0u) << "detection settings not applied on reload";
+    } else {
+      EXPECT_GT(markers, 0u) << "markers did not come back\n" << test::read_file(log);
+    }
+  };
+  std::string strict = c;
+  strict += "detection: {min_perimeter_px: 100000}\n";
+  reload_and_count_markers(strict, "none");
+  reload_and_count_markers(c, "some");
+
   ASSERT_EQ(::kill(pid, SIGTERM), 0);
   EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(10)), std::optional<int>(0)) << test::read_file(log);
 }

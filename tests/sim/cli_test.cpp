@@ -98,6 +98,45 @@ TEST(Cli, SimRenderThenLocateAgreesWithTruth) {
   EXPECT_NE(text.out.find("2 marker(s)"), std::string::npos) << text.out;
 }
 
+// `ips locate --config ipsd.yaml` sees what the daemon sees: its marker sizes, dictionary and
+// detection settings.
+TEST(Cli, LocateWithTheDaemonsConfigUsesItsMarkersAndDetectionSettings) {
+  const fs::path dir = temp_dir("locate_config");
+  std::ofstream(dir / "scene.yaml") << scene_text();
+  ASSERT_EQ(run("sim render --scene " + (dir / "scene.yaml").string() + " --out " + (dir / "f").string()).status, 0);
+  std::ofstream(dir / "model.json") << "{}";
+  const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
+  auto config = [&](const std::string& detection) {
+    return "cameras:\n  - {name: red, source: v4l2, device: /dev/video0, intrinsics: " + intr +
+           "}\nmodel_file: model.json\nmarkers: {edge_length: 0.2, ids: {9: {edge_length: 0.15}}}\n" + detection;
+  };
+  std::ofstream(dir / "ipsd.yaml") << config("detection: {threshold_windows: [9, 19], refinement: edges}\n");
+  std::ofstream(dir / "strict.yaml") << config("detection: {min_perimeter_px: 2000}\n");  // larger than both
+  const std::string image = (dir / "f/red_000000.jpg").string();
+  const auto truth = ips::sim::CameraRenderer(ips::sim::Scene::load(dir / "scene.yaml"), 0).truth(0.0);
+
+  const CmdResult r = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "ipsd.yaml").string() + " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const auto found = nlohmann::json::parse(r.out)["markers"];
+  ASSERT_EQ(found.size(), 2u) << r.out;
+  for (const auto& f : found) {
+    const auto& t = f["id"] == 5 ? truth[0] : truth[1];
+    EXPECT_NEAR(f["zc"].get<double>(), t.formula.p_cam.z(), 0.02);  // 9 at 0.15 m, from markers.ids
+    EXPECT_DOUBLE_EQ(f["length"].get<double>(), f["id"] == 5 ? 0.2 : 0.15);
+  }
+  const CmdResult none = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "strict.yaml").string() + " --json");
+  ASSERT_EQ(none.status, 0) << none.out;
+  EXPECT_EQ(nlohmann::json::parse(none.out)["markers"].size(), 0u) << none.out;
+
+  const CmdResult both = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "ipsd.yaml").string() + " --dictionary DICT_4X4_50");
+  EXPECT_NE(both.status, 0);
+  EXPECT_NE(both.out.find("excludes"), std::string::npos) << both.out;
+  std::ofstream(dir / "typo.yaml") << config("detection: {refinment: edges}\n");
+  const CmdResult typo = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "typo.yaml").string());
+  EXPECT_EQ(typo.status, 2);
+  EXPECT_NE(typo.out.find("typo.yaml:5:13: detection.refinment: unknown key"), std::string::npos) << typo.out;
+}
+
 TEST(Cli, LocateRefusesBadImagesAndIntrinsics) {
   const fs::path dir = temp_dir("locate_errors");
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
