@@ -71,6 +71,16 @@ std::map<std::string, long> thread_cpu(pid_t pid) {
   return out;
 }
 
+// A field of /proc/<pid>/status in MiB (VmRSS: resident now, VmHWM: peak resident).
+double status_mib(pid_t pid, const std::string& field) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(field + ":", 0) == 0) return std::stod(line.substr(field.size() + 1)) / 1024.0;  // kB
+  }
+  return NAN;
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
@@ -166,12 +176,14 @@ int main(int argc, char** argv) {
 
   const long ticks = ::sysconf(_SC_CLK_TCK);
   const auto cpu0 = thread_cpu(pid);
+  const double rss0 = status_mib(pid, "VmRSS");
   const std::int64_t t0 = ips::monotonic_ns();
   std::vector<double> to_send, to_arrive;
   std::size_t markers = 0;
   const std::size_t datagrams = receive_for(seconds, &to_send, &to_arrive, &markers);
   const double wall = 1e-9 * static_cast<double>(ips::monotonic_ns() - t0);
   const auto cpu1 = thread_cpu(pid);
+  const double rss1 = status_mib(pid, "VmRSS"), rss_peak = status_mib(pid, "VmHWM");
   const auto status = nlohmann::json::parse(read_unix_socket(socket_path), nullptr, false);
   ::kill(pid, SIGTERM);
   int ws = 0;
@@ -209,6 +221,9 @@ int main(int argc, char** argv) {
       std::printf("%-12s %8.1f\n", name.c_str(), pct);
     }
   }
+  // A daemon left running for months must not grow: run with a long --seconds to soak.
+  std::printf("memory: resident %.1f MiB at the start of the measurement, %.1f MiB at its end (%+.2f MiB), peak %.1f MiB\n",
+              rss0, rss1, rss1 - rss0, rss_peak);
   std::printf("%-12s %8.1f   (%u hardware threads)\n", "ipsd total", 100.0 * static_cast<double>(total) / static_cast<double>(ticks) / wall,
               std::thread::hardware_concurrency());
   fs::remove_all(dir);
