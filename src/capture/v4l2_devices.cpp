@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
-#include <regex>
 
 #include <fmt/format.h>
 
@@ -118,14 +117,16 @@ V4L2DeviceInfo query_v4l2_device(const std::string& path) {
 }
 
 std::vector<V4L2DeviceInfo> list_v4l2_devices(const std::string& dev_dir) {
-  static const std::regex kVideoNode("video([0-9]+)");
   std::vector<std::pair<int, std::string>> nodes;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(dev_dir, ec)) {
-    std::smatch m;
     const std::string name = entry.path().filename().string();
-    if (std::regex_match(name, m, kVideoNode))
-      nodes.emplace_back(std::stoi(m[1]), entry.path().string());
+    // "video" + 1..9 digits: video0, video12 (not video-emu0, not videoX).
+    const std::string digits = name.rfind("video", 0) == 0 ? name.substr(5) : std::string();
+    if (digits.empty() || digits.size() > 9 ||
+        !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      continue;
+    nodes.emplace_back(std::stoi(digits), entry.path().string());
   }
   std::sort(nodes.begin(), nodes.end());
 

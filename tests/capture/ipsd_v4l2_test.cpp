@@ -15,7 +15,6 @@
 #include <fstream>
 #include <functional>
 #include <optional>
-#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -68,8 +67,9 @@ class IpsdOnEmulatedCameras : public ::testing::Test {
   void SetUp() override {
     // The published layout with two robots standing still, both seen by red and white.
     std::string scene = read_text(std::string(IPS_CONFIG_DIR) + "/scenes/ou2023.yaml");
-    scene = std::regex_replace(scene, std::regex(R"(\.\./\.\./calib_data)"),
-                               std::string(IPS_TEST_DATA_DIR));
+    const std::string relative = "../../calib_data", absolute = IPS_TEST_DATA_DIR;
+    for (auto at = scene.find(relative); at != std::string::npos; at = scene.find(relative, at + absolute.size()))
+      scene.replace(at, relative.size(), absolute);
     scene = scene.substr(0, scene.find("\nmarkers:")) + R"(
 markers:
   - id: 1

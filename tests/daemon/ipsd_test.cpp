@@ -5,7 +5,6 @@
 #include <cmath>
 #include <map>
 #include <random>
-#include <regex>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -35,7 +34,9 @@ class IpsdTest : public ::testing::Test {
     fs::create_directories(*dir_);
     // The published scene with its calibration paths made absolute and two moving robots.
     std::string scene = test::read_file(fs::path(IPS_CONFIG_DIR) / "scenes/ou2023.yaml");
-    scene = std::regex_replace(scene, std::regex(R"(\.\./\.\./calib_data)"), std::string(IPS_TEST_DATA_DIR));
+    const std::string relative = "../../calib_data", absolute = IPS_TEST_DATA_DIR;
+    for (auto at = scene.find(relative); at != std::string::npos; at = scene.find(relative, at + absolute.size()))
+      scene.replace(at, relative.size(), absolute);
     scene = scene.substr(0, scene.find("\nmarkers:")) + R"(
 markers:
   - id: 1
