@@ -3,7 +3,8 @@
 // camera of the published layout): MJPEG decode, detection, locate; median and p95 over the
 // frames, single-threaded (cv::setNumThreads(1)). Two pipelines on the same frames:
 //   ours:      greyscale turbojpeg decode -> ips::Detector (downscaled detection, fewer
-//              threshold passes, full-resolution cornerSubPix) -> ips::locate_marker
+//              threshold passes, full-resolution edge-line corner refinement with the camera model,
+//              cell verification) -> ips::locate_marker
 //   reference: the published sequence: cv::imdecode colour -> cvtColor grey -> detectMarkers
 //              with default parameters -> cornerSubPix (winSize 3x3) ->
 //              cv::fisheye::undistortPoints
