@@ -21,6 +21,7 @@
 #include "emu_control.h"
 #include "child_process.h"
 #include "emu_harness.h"
+#include "published_scene.h"
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
 #include "ips/sim/renderer.h"
@@ -66,12 +67,7 @@ class IpsdOnEmulatedCameras : public ::testing::Test {
  protected:
   void SetUp() override {
     // The published layout with two robots standing still, both seen by red and white.
-    std::string scene = read_text(std::string(IPS_CONFIG_DIR) + "/scenes/ou2023.yaml");
-    const std::string relative = "../../calib_data", absolute = IPS_TEST_DATA_DIR;
-    for (auto at = scene.find(relative); at != std::string::npos; at = scene.find(relative, at + absolute.size()))
-      scene.replace(at, relative.size(), absolute);
-    scene = scene.substr(0, scene.find("\nmarkers:")) + R"(
-markers:
+    const std::string scene = ips::test::published_scene_with(R"(markers:
   - id: 1
     length: 0.20
     x: 2.2
@@ -82,7 +78,7 @@ markers:
     x: 2.8
     y: 1.7
     height: 0.10
-)";
+)");
     std::ofstream(dir_ / "scene.yaml") << scene;
     // The camera->world model: simulated calibration pairs, plane mapper (as tools/demo.sh).
     const std::string ips = IPS_TOOL;

@@ -16,6 +16,7 @@
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 #include "process_util.h"
+#include "published_scene.h"
 
 namespace ips {
 namespace {
@@ -33,12 +34,7 @@ class IpsdTest : public ::testing::Test {
     dir_ = new fs::path(fs::temp_directory_path() / ("ipsd_test_" + std::to_string(::getpid())));
     fs::create_directories(*dir_);
     // The published scene with its calibration paths made absolute and two moving robots.
-    std::string scene = test::read_file(fs::path(IPS_CONFIG_DIR) / "scenes/ou2023.yaml");
-    const std::string relative = "../../calib_data", absolute = IPS_TEST_DATA_DIR;
-    for (auto at = scene.find(relative); at != std::string::npos; at = scene.find(relative, at + absolute.size()))
-      scene.replace(at, relative.size(), absolute);
-    scene = scene.substr(0, scene.find("\nmarkers:")) + R"(
-markers:
+    const std::string scene = ips::test::published_scene_with(R"(markers:
   - id: 1
     length: 0.20
     height: 0.15
@@ -47,7 +43,7 @@ markers:
     length: 0.20
     height: 0.10
     trajectory: {type: line, from: [1.6, 1.2], to: [3.2, 3.6], speed: 0.25}
-)";
+)");
     std::ofstream(*dir_ / "scene.yaml") << scene;
     // The model: the plane mapper fitted per camera on simulated calibration pairs (what
     // tools/demo.sh does with `ips sim collect` + `ips fit`). The pairs come from the exact
