@@ -34,6 +34,7 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
+#include "loopback_udp.h"
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
 
@@ -119,15 +120,8 @@ int main(int argc, char** argv) {
   }
 
   // The receiver, on a free loopback port.
-  const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
-  const int rcvbuf = 4 << 20;
-  ::setsockopt(rx, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(rx, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t len = sizeof a;
-  ::getsockname(rx, reinterpret_cast<sockaddr*>(&a), &len);
+  ips::support::UdpReceiver receiver;
+  const int rx = receiver.fd;
 
   const std::string socket_path = (dir / "status.sock").string();
   std::ofstream(dir / "ipsd.yaml")
@@ -138,7 +132,7 @@ int main(int argc, char** argv) {
       << "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n    3: {height: 0.0, edge_length: 0.15}\n"
       << "    4: {height: 0.05}\n"
       << "model_file: model.json\n"
-      << "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " << ntohs(a.sin_port) << ", format: binary}\n"
+      << "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " << receiver.port << ", format: binary}\n"
       << "status: {interval: 0, socket: " << socket_path << "}\n";
   const fs::path daemon_log = dir / "ipsd.log";
   const pid_t pid = spawn({ipsd.string(), "--config", (dir / "ipsd.yaml").string()}, daemon_log);
@@ -188,7 +182,6 @@ int main(int argc, char** argv) {
   ::kill(pid, SIGTERM);
   int ws = 0;
   ::waitpid(pid, &ws, 0);
-  ::close(rx);
 
   std::printf("\nbench_daemon: %.1f s measured, %zu datagrams (%.1f/s), %.2f markers per datagram\n", wall, datagrams,
               static_cast<double>(datagrams) / wall, datagrams ? static_cast<double>(markers) / static_cast<double>(datagrams) : 0.0);

@@ -21,6 +21,7 @@
 #include "emu_control.h"
 #include "child_process.h"
 #include "emu_harness.h"
+#include "loopback_udp.h"
 #include "published_scene.h"
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
@@ -38,30 +39,7 @@ constexpr int kFps = 5;
 // The supervisor's back-off: first retry after 0.5 s, doubling up to 10 s (daemon section).
 constexpr double kMaxBackoffBeforeReplugS = 4.0;
 
-struct UdpReceiver {
-  UdpReceiver() {
-    fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
-        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0)
-      port = ntohs(a.sin_port);
-  }
-  ~UdpReceiver() { ::close(fd); }
-  std::optional<ips::Datagram> receive(int timeout_ms) {
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, timeout_ms) != 1) return std::nullopt;
-    std::vector<std::uint8_t> buf(65536);
-    const ssize_t n = ::recv(fd, buf.data(), buf.size(), 0);
-    if (n <= 0) return std::nullopt;
-    buf.resize(static_cast<std::size_t>(n));
-    return ips::decode_datagram(buf);
-  }
-  int fd = -1;
-  std::uint16_t port = 0;
-};
+using ips::support::UdpReceiver;
 
 class IpsdOnEmulatedCameras : public ::testing::Test {
  protected:
@@ -146,7 +124,7 @@ bool receive_until(UdpReceiver& rx, double seconds,
                    const std::function<bool(const ips::Datagram&)>& done) {
   const std::int64_t end = ips::monotonic_ns() + static_cast<std::int64_t>(seconds * 1e9);
   while (ips::monotonic_ns() < end)
-    if (auto d = rx.receive(50); d && done(*d)) return true;
+    if (auto bytes = rx.receive(50); bytes && done(ips::decode_datagram(*bytes))) return true;
   return false;
 }
 
