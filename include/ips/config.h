@@ -118,9 +118,16 @@ struct DaemonConfig {
   double stall_timeout_s = 2.0;  ///< watchdog: a thread without progress this long withholds WATCHDOG=1
 };
 
+/// What loading checks beyond the format. `ips calibrate --config` loads a lab's config before
+/// a camera's intrinsics file exists (the calibration is what writes it).
+struct ConfigChecks {
+  bool intrinsics_exist = true;  ///< cameras[].intrinsics must name an existing file
+};
+
 /// Parses and validates `path` (relative paths inside are resolved against its directory).
-DaemonConfig load_config(const std::filesystem::path& path);
-DaemonConfig parse_config(const std::string& yaml_text, const std::filesystem::path& path);
+DaemonConfig load_config(const std::filesystem::path& path, ConfigChecks checks = {});
+DaemonConfig parse_config(const std::string& yaml_text, const std::filesystem::path& path,
+                          ConfigChecks checks = {});
 
 /// Cross-checks the configuration against a loaded model file: every camera's model exists;
 /// if a camera's mapper needs the marker height, markers.height or every listed id must give one

@@ -104,7 +104,7 @@ class MapReader {
   }
 
   void get_path(const std::string& k, std::filesystem::path& value, const std::filesystem::path& base,
-                bool required) {
+                bool required, bool must_exist = true) {
     std::string s;
     get(k, s, required);
     if (!has(k)) return;
@@ -112,7 +112,7 @@ class MapReader {
     std::filesystem::path p(s);
     value = p.is_absolute() ? p : base / p;
     std::error_code ec;
-    if (!std::filesystem::exists(value, ec)) fail(node_[k], key(k), "no such file: " + value.string());
+    if (must_exist && !std::filesystem::exists(value, ec)) fail(node_[k], key(k), "no such file: " + value.string());
   }
 
   void finish() const {
@@ -158,7 +158,8 @@ Enum pick(MapReader& r, const std::string& k, const std::vector<std::pair<std::s
   r.fail(r.raw()[k], r.key(k), "unknown value '" + s + "' (" + names + ")");
 }
 
-CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem::path& base, const std::string& file) {
+CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem::path& base, const std::string& file,
+                          ConfigChecks checks) {
   MapReader r(n, "cameras[" + std::to_string(index) + "]", file);
   CameraConfig c;
   c.index = index;
@@ -204,7 +205,7 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
   c.scene_camera = c.name;
   r.get("scene_camera", c.scene_camera);
   r.get_number("fps", c.fps, 0.0, true);
-  r.get_path("intrinsics", c.intrinsics, base, c.source != SourceKind::kSynthetic);
+  r.get_path("intrinsics", c.intrinsics, base, c.source != SourceKind::kSynthetic, checks.intrinsics_exist);
   r.get("required", c.required);
   r.finish();
   return c;
@@ -322,7 +323,7 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
 
 }  // namespace
 
-DaemonConfig parse_config(const std::string& text, const std::filesystem::path& path) {
+DaemonConfig parse_config(const std::string& text, const std::filesystem::path& path, ConfigChecks checks) {
   const std::string file = path.string();
   YAML::Node root;
   try {
@@ -344,7 +345,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   if (cameras.size() > 32) r.fail(cameras, "cameras", "at most 32 cameras (the stream's camera mask is 32 bits)");
   std::set<std::string> names;
   for (std::size_t i = 0; i < cameras.size(); ++i) {
-    c.cameras.push_back(parse_camera(cameras[i], static_cast<int>(i), base, file));
+    c.cameras.push_back(parse_camera(cameras[i], static_cast<int>(i), base, file, checks));
     if (!names.insert(c.cameras.back().name).second)
       r.fail(cameras[i]["name"], "cameras[" + std::to_string(i) + "].name", "duplicate camera name '" + c.cameras.back().name + "'");
   }
@@ -414,12 +415,12 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   return c;
 }
 
-DaemonConfig load_config(const std::filesystem::path& path) {
+DaemonConfig load_config(const std::filesystem::path& path, ConfigChecks checks) {
   std::ifstream in(path);
   if (!in) throw InputError(path.string() + ": cannot read the configuration file");
   std::stringstream text;
   text << in.rdbuf();
-  return parse_config(text.str(), path);
+  return parse_config(text.str(), path, checks);
 }
 
 }  // namespace ips

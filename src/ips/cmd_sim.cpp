@@ -233,12 +233,30 @@ std::function<int()> setup_sim(CLI::App& sub) {
       ->capture_default_str();
   collect->add_option("--camera", c->cameras, "Only these cameras (repeatable; default all)");
 
-  return [render, collect, r, c]() -> int {
+  // `ips sim` subcommands in their own files (IPS_REGISTER_SIM_COMMAND).
+  std::vector<std::pair<CLI::App*, std::function<int()>>> more;
+  for (const auto& command : ips::cli::sim_registry()) {
+    CLI::App* s = sub.add_subcommand(command.name, command.help);
+    more.emplace_back(s, command.setup(*s));
+  }
+
+  return [render, collect, r, c, more]() -> int {
     if (render->parsed()) return run_render(*r);
     if (collect->parsed()) return run_collect(*c);
+    for (const auto& [s, run] : more)
+      if (s->parsed()) return run();
     return 2;
   };
 }
+
+}  // namespace
+
+std::vector<ips::cli::Command>& ips::cli::sim_registry() {
+  static std::vector<Command> commands;
+  return commands;
+}
+
+namespace {
 
 IPS_REGISTER_COMMAND(
     "sim", "Simulated cameras: render frames with ground truth, collect calibration pairs",

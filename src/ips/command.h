@@ -27,9 +27,19 @@ struct Registrar {
   explicit Registrar(Command command) { registry().push_back(std::move(command)); }
 };
 
+/// Subcommands of `ips sim` that live in their own files (cmd_sim_<name>.cpp); cmd_sim.cpp
+/// adds them next to its own.
+std::vector<Command>& sim_registry();
+
+struct SimRegistrar {
+  explicit SimRegistrar(Command command) { sim_registry().push_back(std::move(command)); }
+};
+
 }  // namespace ips::cli
 
 #define IPS_CONCAT_INNER(a, b) a##b
 #define IPS_CONCAT(a, b) IPS_CONCAT_INNER(a, b)
 #define IPS_REGISTER_COMMAND(name, help, setup) \
   static const ::ips::cli::Registrar IPS_CONCAT(ips_command_, __LINE__){{name, help, setup}}
+#define IPS_REGISTER_SIM_COMMAND(name, help, setup) \
+  static const ::ips::cli::SimRegistrar IPS_CONCAT(ips_sim_command_, __LINE__){{name, help, setup}}

@@ -239,6 +239,14 @@ void CameraRenderer::render_markers(const std::vector<PlacedMarker>& markers, cv
                                     std::uint64_t noise_index) const {
   background_.copyTo(gray);
   for (const auto& m : markers) draw_marker(m, gray);
+  add_noise(gray, noise_index);
+}
+
+void CameraRenderer::add_noise(cv::Mat& gray, std::uint64_t noise_index) const {
+  if (gray.type() != CV_8UC1 || gray.rows != height_ || gray.cols != width_ ||
+      !gray.isContinuous()) {
+    throw std::invalid_argument("CameraRenderer::add_noise: not a frame of this camera");
+  }
   if (scene_.render.noise_sigma > 0) {
     const std::size_t n = static_cast<std::size_t>(width_) * height_;
     const std::size_t range = noise_->size() - n;

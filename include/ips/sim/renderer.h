@@ -64,6 +64,17 @@ class CameraRenderer {
   const SceneCamera& camera() const { return scene_.cameras[camera_index_]; }
   const Scene& scene() const { return scene_; }
 
+  // The image-formation pieces, for other things drawn through the same camera (the
+  // calibration board, board_renderer.h).
+  /// CV_32FC2: normalised coordinates (X/Z, Y/Z) of each pixel centre's ray (NaN: no ray).
+  const cv::Mat& rays() const { return *uv_; }
+  /// CV_32F: vignetting x lighting gradient at each pixel.
+  const cv::Mat& gain() const { return gain_; }
+  /// CV_8U: the floor as this camera sees it, without markers or noise.
+  const cv::Mat& background() const { return background_; }
+  /// Adds the scene's sensor noise (pattern `noise_index`) to a frame of this camera.
+  void add_noise(cv::Mat& gray, std::uint64_t noise_index) const;
+
  private:
   void draw_marker(const PlacedMarker& m, cv::Mat& gray) const;
 
