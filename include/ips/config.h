@@ -119,9 +119,10 @@ struct DaemonConfig {
 };
 
 /// What loading checks beyond the format. `ips calibrate --config` loads a lab's config before
-/// a camera's intrinsics file exists (the calibration is what writes it).
+/// a camera's intrinsics file and the model file exist (calibration comes first).
 struct ConfigChecks {
   bool intrinsics_exist = true;  ///< cameras[].intrinsics must name an existing file
+  bool model_file_exists = true; ///< model_file must name an existing file
 };
 
 /// Parses and validates `path` (relative paths inside are resolved against its directory).

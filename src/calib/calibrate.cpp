@@ -186,8 +186,28 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
     try {
       f = fit(views, board, opt.kind, size);
     } catch (const cv::Exception& e) {
-      throw InputError(std::string("the calibration did not converge (OpenCV: ") + e.err +
-                       "); take views that show the board larger, flatter and nearer the centre");
+      // cv::fisheye::calibrate's start (a homography per view from undistorted points with a
+      // guessed focal length) fails on some views (assertion "norm_u1 > 0"); find one whose
+      // removal lets the fit run, drop it by name, and go on.
+      std::size_t culprit = active.size();
+      for (std::size_t k = 0; k < active.size() && culprit == active.size(); ++k) {
+        std::vector<const BoardObservation*> others;
+        for (std::size_t j = 0; j < active.size(); ++j)
+          if (j != k) others.push_back(&observations[active[j]]);
+        try {
+          (void)fit(others, board, opt.kind, size);
+          culprit = k;
+        } catch (const cv::Exception&) {
+        }
+      }
+      if (culprit == active.size() || static_cast<int>(active.size()) - 1 < opt.min_views) {
+        throw InputError(std::string("the calibration did not converge (OpenCV: ") + e.err +
+                         "); take views that show the board larger, flatter and nearer the centre");
+      }
+      res.views[active[culprit]].why = std::string("OpenCV's calibration fails with this view (") + e.err + ")";
+      active.erase(active.begin() + static_cast<long>(culprit));
+      --round;
+      continue;
     }
     const CameraModel model(opt.kind, size, f.K, f.D);
     std::vector<double> rms;

@@ -64,7 +64,7 @@ Tilt ViewSelector::tilt_of(const BoardObservation& obs) const {
   constexpr double kFlat = 0.12;  // about 15 degrees for a board at arm's length
   if (std::hypot(tx, ty) < kFlat) return Tilt::kFlat;
   if (std::abs(tx) >= std::abs(ty)) return tx > 0 ? Tilt::kLeftNear : Tilt::kRightNear;
-  return ty > 0 ? Tilt::kBottomNear : Tilt::kTopNear;
+  return ty > 0 ? Tilt::kTopNear : Tilt::kBottomNear;  // board y runs down the print
 }
 
 ViewSelector::Decision ViewSelector::offer(const cv::Mat& gray, const BoardObservation& obs) {

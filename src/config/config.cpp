@@ -358,7 +358,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
     r.fail(root["markers"]["dictionary"], "markers.dictionary", e.what());
   }
   c.detection.dictionary = c.markers.dictionary;
-  r.get_path("model_file", c.model_file, base, true);
+  r.get_path("model_file", c.model_file, base, true, checks.model_file_exists);
 
   if (r.has("fusion")) {
     MapReader f(r.node("fusion"), "fusion", file);

@@ -74,8 +74,8 @@ std::vector<BoardObservation> observe_live(const Args& a, const Board& board, st
     cam.source = ips::SourceKind::kV4l2;
     cam.device = a.device;
   } else {
-    // The camera's intrinsics file need not exist yet: this run writes it.
-    const ips::DaemonConfig cfg = ips::load_config(a.config, ips::ConfigChecks{false});
+    // The camera's intrinsics file need not exist yet (this run writes it), nor the model file.
+    const ips::DaemonConfig cfg = ips::load_config(a.config, ips::ConfigChecks{false, false});
     auto it = std::find_if(cfg.cameras.begin(), cfg.cameras.end(),
                            [&](const auto& c) { return c.name == a.camera; });
     if (it == cfg.cameras.end()) {
@@ -189,12 +189,17 @@ int run(const Args& a) {
     for (const auto& v : r.views)
       if (v.used) pts.insert(pts.end(), v.px.begin(), v.px.end());
     const auto d = compare_models(*truth, r.model, pts);
-    const auto plain = compare_models(*truth, calibrate_opencv_plain(obs, board, opt.kind), pts);
+    char plain_text[160];
+    try {
+      const auto plain = compare_models(*truth, calibrate_opencv_plain(obs, board, opt.kind), pts);
+      std::snprintf(plain_text, sizeof plain_text, "max %.3f px, RMS %.3f px", plain.max_px, plain.rms_px);
+    } catch (const cv::Exception& e) {
+      std::snprintf(plain_text, sizeof plain_text, "fails: %s", e.err.c_str());
+    }
     std::fprintf(out,
                  "vs %s over the covered field (%d px): max %.3f px at (%.0f, %.0f), RMS %.3f px "
-                 "(plain OpenCV on the same corners: max %.3f px, RMS %.3f px)\n",
-                 a.truth.c_str(), d.pixels, d.max_px, d.worst.x, d.worst.y, d.rms_px, plain.max_px,
-                 plain.rms_px);
+                 "(plain OpenCV on the same corners: %s)\n",
+                 a.truth.c_str(), d.pixels, d.max_px, d.worst.x, d.worst.y, d.rms_px, plain_text);
   }
 
   // Everything checked: write.

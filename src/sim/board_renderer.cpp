@@ -197,7 +197,15 @@ std::vector<BoardView> generate_board_views(const BoardRenderer& renderer,
     const double cx = (i % gx + 0.5) * W / gx, cy = (i / gx + 0.5) * H / gy;
     if (model.has_ray({cx, cy})) cells.push_back(i);
   }
+  // The image's corner cells first, then its edges, then the inside (each group shuffled):
+  // when there are more cells than views, the ones left out are inside, where neighbouring
+  // views overlap anyway, and the edges, where a lens model is hardest to pin down, are covered.
   std::shuffle(cells.begin(), cells.end(), rng);
+  auto rank = [&](int c) {
+    const bool ex = c % gx == 0 || c % gx == gx - 1, ey = c / gx == 0 || c / gx == gy - 1;
+    return ex && ey ? 0 : (ex || ey ? 1 : 2);
+  };
+  std::stable_sort(cells.begin(), cells.end(), [&](int a, int b) { return rank(a) < rank(b); });
   const double f = model.K()(0, 0);
   const Eigen::Vector3d half(0.5 * spec.width(), 0.5 * spec.height(), 0.0);
   std::vector<BoardView> out;

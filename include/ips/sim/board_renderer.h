@@ -76,10 +76,11 @@ struct BoardView {
 
 /// Poses that spread the board over the image and over tilts, the way a person should
 /// calibrate: the image is divided into a grid of about `views` cells (aspect-matched); view
-/// k aims the board's centre at a random point of cell k (cells in shuffled order, cells
-/// whose centre has no ray skipped), at a distance that makes the board 30-55 % of the image
+/// k aims the board's centre at a random point of cell k (the image's corner cells first, then
+/// its edge cells, then the inside, each group in random order; cells whose centre has no ray
+/// skipped), at a distance that makes the board 30-55 % of the image
 /// width, faces it to the camera, rolls it by +-45 deg and tilts it by 10-50 deg about a
-/// random in-plane axis. A pose is kept if >= half of the corners are visible and the board
+/// random in-plane axis. A pose is kept if >= 85 % of the corners are visible and the board
 /// is not seen edge-on (< 70 deg); otherwise it is redrawn, moving towards the image centre.
 std::vector<BoardView> generate_board_views(const BoardRenderer& renderer,
                                             const BoardViewOptions& options);
