@@ -387,7 +387,9 @@ std::string intrinsics_yaml(const CalibrationResult& r, const BoardSpec& board,
   char buf[512];
   s += "calibration:\n";
   s += "  board: \"" + board.str() + "\"\n";
-  s += "  source: \"" + source + "\"\n";
+  std::string quoted;  // a YAML double-quoted scalar
+  for (char c : source) quoted += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  s += "  source: \"" + quoted + "\"\n";
   int dropped = 0;
   for (const auto& v : r.views) dropped += (!v.used && v.why.rfind("outlier", 0) == 0) ? 1 : 0;
   std::snprintf(buf, sizeof buf,

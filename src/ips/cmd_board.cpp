@@ -1,5 +1,8 @@
 // `ips board`: the printable ChArUco calibration board (SVG at exact size, optional PNG).
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <stdexcept>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,14 +22,38 @@ struct Args {
   double dpi = 300.0;
 };
 
+std::uint32_t crc32(const std::uint8_t* p, std::size_t n) {
+  std::uint32_t c = 0xFFFFFFFFu;
+  for (std::size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+  }
+  return ~c;
+}
+
+// Stores the physical resolution (a pHYs chunk right after IHDR), so that image viewers and
+// printers print the PNG at its true size. OpenCV's encoder writes none.
+void add_png_resolution(std::vector<std::uint8_t>& png, double dpi) {
+  constexpr std::size_t kAfterIhdr = 8 + 4 + 4 + 13 + 4;  // signature + IHDR chunk
+  if (png.size() < kAfterIhdr) throw std::runtime_error("PNG encoding failed");
+  const auto ppm = static_cast<std::uint32_t>(std::lround(dpi / 0.0254));  // pixels per metre
+  std::vector<std::uint8_t> chunk{0, 0, 0, 9, 'p', 'H', 'Y', 's'};
+  for (int axis = 0; axis < 2; ++axis)
+    for (int b = 3; b >= 0; --b) chunk.push_back(static_cast<std::uint8_t>(ppm >> (8 * b)));
+  chunk.push_back(1);  // unit: metre
+  const std::uint32_t crc = crc32(chunk.data() + 4, chunk.size() - 4);
+  for (int b = 3; b >= 0; --b) chunk.push_back(static_cast<std::uint8_t>(crc >> (8 * b)));
+  png.insert(png.begin() + kAfterIhdr, chunk.begin(), chunk.end());
+}
+
 int run(const Args& a) {
   const ips::calib::Board board(ips::calib::BoardSpec::parse(a.board));
   if (!(a.dpi >= 50 && a.dpi <= 2400)) throw ips::InputError("--dpi must be 50..2400");
   const std::string svg = ips::calib::board_svg(board);
   std::vector<std::uint8_t> png;
   if (!a.png.empty()) {
-    // PNG with its physical resolution stored (pHYs), so viewers and printers know the size.
     cv::imencode(".png", ips::calib::board_raster(board, a.dpi), png);
+    add_png_resolution(png, a.dpi);
   }
   ips::cli::write_file_atomically(a.out, svg);
   if (!a.png.empty()) ips::cli::write_file_atomically(a.png, std::string(png.begin(), png.end()));

@@ -73,6 +73,9 @@ void BoardRenderer::render(const BoardPose& pose, const BoardLook& look, cv::Mat
       by1 = std::max(by1, px.y);
     }
   }
+  // Points just in front of the camera project far outside the image: clamp before casting.
+  auto lim = [&](double v) { return std::clamp(v, -1e6, 1e6); };
+  bx0 = lim(bx0), by0 = lim(by0), bx1 = lim(bx1), by1 = lim(by1);
   const int pad = 3 + static_cast<int>(std::ceil(3 * look.blur_sigma));
   const int x0 = std::max(0, static_cast<int>(std::floor(bx0)) - pad);
   const int y0 = std::max(0, static_cast<int>(std::floor(by0)) - pad);

@@ -48,6 +48,17 @@ void check_lens(const std::string& lens, ips::CameraModel::Kind kind) {
   EXPECT_LE(d.max_px, 0.6);
   EXPECT_LE(d.max_px, dp.max_px + 0.01);
   EXPECT_GE(r.used_views, 27);  // simulated views are all good: nothing should look like an outlier
+  EXPECT_EQ(r.corners_without_ray, 0);
+  // A fisheye polynomial that turns back (the shipped `black` lens, at 71 deg) is found in the
+  // fit too and reported, beyond the covered field; the others do not turn back before 90 deg.
+  const double true_turn = v.truth().max_theta() * 180 / M_PI;
+  if (true_turn < 89.9) {
+    ASSERT_TRUE(r.turn_back_deg.has_value());
+    EXPECT_NEAR(*r.turn_back_deg, true_turn, 1.5);
+    EXPECT_GT(*r.turn_back_deg, r.max_field_deg);
+  } else {
+    EXPECT_FALSE(r.turn_back_deg.has_value() && *r.turn_back_deg < r.max_field_deg);
+  }
 }
 
 }  // namespace

@@ -70,6 +70,20 @@ TEST(CalibCli, BoardWritesSvgAndPng) {
                      (d / "b.png").string() + " --dpi 200");
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_TRUE(fs::file_size(d / "b.svg") > 1000);
+  // The PNG states its resolution: pHYs = 200 dpi = 7874 pixels per metre on both axes.
+  std::ifstream pin(d / "b.png", std::ios::binary);
+  std::stringstream pbuf;
+  pbuf << pin.rdbuf();
+  const std::string bytes = pbuf.str();
+  const auto at = bytes.find("pHYs");
+  ASSERT_NE(at, std::string::npos);
+  const auto u32 = [&](std::size_t o) {
+    return (std::uint32_t(std::uint8_t(bytes[o])) << 24) | (std::uint32_t(std::uint8_t(bytes[o + 1])) << 16) |
+           (std::uint32_t(std::uint8_t(bytes[o + 2])) << 8) | std::uint32_t(std::uint8_t(bytes[o + 3]));
+  };
+  EXPECT_EQ(u32(at + 4), 7874u);
+  EXPECT_EQ(u32(at + 8), 7874u);
+  EXPECT_EQ(bytes[at + 12], 1);
   const cv::Mat png = cv::imread((d / "b.png").string(), cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(png.empty());
   // 280 mm board + 2 x 15 mm margin at 200 dpi.
