@@ -59,7 +59,8 @@ cv::Mat draw_report(const CalibrationResult& r, const BoardSpec& board, double m
   }
   // Where a fitted fisheye polynomial turns back: no ray beyond this circle.
   if (r.turn_back_deg) {
-    cv::circle(img, cv::Point2d(r.model.K()(0, 2) * scale, r.model.K()(1, 2) * scale),
+    cv::Mat area = img(cv::Rect(0, 0, W, H));  // not over the text below
+    cv::circle(area, cv::Point2d(r.model.K()(0, 2) * scale, r.model.K()(1, 2) * scale),
                static_cast<int>(r.turn_back_radius_px * scale), cv::Scalar(0, 165, 255), 2, cv::LINE_AA);
   }
   for (const auto& v : r.views) {

@@ -203,7 +203,6 @@ int run(const Args& a) {
   }
 
   // Everything checked: write.
-  cv::Mat report;
   std::vector<std::uint8_t> png;
   if (!a.report.empty()) cv::imencode(".png", draw_report(r, spec, a.magnify), png);
   ips::cli::write_file_atomically(a.out, intrinsics_yaml(r, spec, source));
