@@ -32,7 +32,7 @@ std::vector<cv::Point3d> object_points(const BoardObservation& o, const Board& b
 
 // One OpenCV fit over the given views.
 Fit fit(const std::vector<const BoardObservation*>& views, const Board& board,
-        CameraModel::Kind kind, cv::Size size) {
+        CameraModel::Kind kind, cv::Size size, bool thin_prism) {
   Fit f;
   const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12);
   if (kind == CameraModel::Kind::kFisheye) {
@@ -60,10 +60,11 @@ Fit fit(const std::vector<const BoardObservation*>& views, const Board& board,
     }
     cv::Mat K, D;
     std::vector<cv::Mat> rv, tv;
-    cv::calibrateCamera(obj, img, size, K, D, rv, tv, cv::CALIB_RATIONAL_MODEL, crit);
+    const int flags = cv::CALIB_RATIONAL_MODEL | (thin_prism ? cv::CALIB_THIN_PRISM_MODEL : 0);
+    cv::calibrateCamera(obj, img, size, K, D, rv, tv, flags, crit);
     f.K = cv::Matx33d(K);
     f.D.assign(D.begin<double>(), D.end<double>());
-    f.D.resize(8, 0.0);
+    f.D.resize(thin_prism ? 12 : 8, 0.0);
     for (std::size_t i = 0; i < rv.size(); ++i) {
       f.rvecs.emplace_back(rv[i]);
       f.tvecs.emplace_back(tv[i]);
@@ -184,7 +185,7 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
     std::vector<const BoardObservation*> views;
     for (std::size_t i : active) views.push_back(&observations[i]);
     try {
-      f = fit(views, board, opt.kind, size);
+      f = fit(views, board, opt.kind, size, opt.thin_prism);
     } catch (const cv::Exception& e) {
       // cv::fisheye::calibrate's start (a homography per view from undistorted points with a
       // guessed focal length) fails on some views (assertion "norm_u1 > 0"); find one whose
@@ -195,7 +196,7 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
         for (std::size_t j = 0; j < active.size(); ++j)
           if (j != k) others.push_back(&observations[active[j]]);
         try {
-          (void)fit(others, board, opt.kind, size);
+          (void)fit(others, board, opt.kind, size, opt.thin_prism);
           culprit = k;
         } catch (const cv::Exception&) {
         }
@@ -321,12 +322,13 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
 }
 
 CameraModel calibrate_opencv_plain(const std::vector<BoardObservation>& observations,
-                                   const Board& board, CameraModel::Kind kind, int min_corners) {
+                                   const Board& board, CameraModel::Kind kind, int min_corners,
+                                   bool thin_prism) {
   std::vector<const BoardObservation*> views;
   for (const auto& o : observations)
     if (usable_problem(o, min_corners).empty()) views.push_back(&o);
   if (views.empty()) throw InputError("no usable views");
-  const Fit f = fit(views, board, kind, views.front()->image_size);
+  const Fit f = fit(views, board, kind, views.front()->image_size, thin_prism);
   return CameraModel(kind, views.front()->image_size, f.K, f.D);
 }
 
@@ -362,7 +364,10 @@ std::string model_yaml(const CameraModel& m) {
   const auto& K = m.K();
   const bool fisheye = m.kind() == CameraModel::Kind::kFisheye;
   std::string s = std::string("# Camera intrinsics (the ipsd intrinsics form, include/ips/camera_model.h): OpenCV ") +
-                  (fisheye ? "fisheye model, D = k1 k2 k3 k4" : "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6") + ".\n";
+                  (fisheye ? "fisheye model, D = k1 k2 k3 k4"
+                           : (m.D().size() == 12 ? "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4"
+                                                 : "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6")) +
+                  ".\n";
   s += std::string("model: ") + (fisheye ? "fisheye" : "pinhole") + "\n";
   char buf[512];
   std::snprintf(buf, sizeof buf, "image_width: %d\nimage_height: %d\n", m.size().width, m.size().height);

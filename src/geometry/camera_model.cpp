@@ -1,5 +1,5 @@
 // CameraModel: OpenCV fisheye (Kannala-Brandt, k1..k4) and pinhole (Brown-Conrady, 4/5/8
-// coefficients) intrinsics. project() is the closed-form model; undistort() inverts it with
+// coefficients, 12 with the thin-prism terms) intrinsics. project() is the closed-form model; undistort() inverts it with
 // Newton iterations run to machine precision, so project(undistort(p)) == p to ~1e-12 px
 // over the whole image (cv::fisheye::undistortPoints stops after 10 fixed-point steps,
 // which leaves up to ~1e-3 px near the border of a 180-degree lens).
@@ -46,8 +46,9 @@ void validate(const std::string& where, CameraModel::Kind kind, cv::Size size, c
     throw InputError(where + ": key 'D': the fisheye model needs 4 coefficients (k1..k4), got " +
                      std::to_string(D.size()));
   }
-  if (kind == CameraModel::Kind::kPinhole && D.size() != 4 && D.size() != 5 && D.size() != 8) {
-    throw InputError(where + ": key 'D': the pinhole model needs 4, 5 or 8 coefficients, got " +
+  if (kind == CameraModel::Kind::kPinhole && D.size() != 4 && D.size() != 5 && D.size() != 8 &&
+      D.size() != 12) {
+    throw InputError(where + ": key 'D': the pinhole model needs 4, 5, 8 or 12 coefficients, got " +
                      std::to_string(D.size()));
   }
 }
@@ -198,7 +199,8 @@ CameraModel load_opencv_storage(const std::string& where, const std::filesystem:
 CameraModel::CameraModel(Kind kind, cv::Size size, cv::Matx33d K, std::vector<double> D)
     : kind_(kind), size_(size), K_(K), D_(std::move(D)) {
   validate("CameraModel", kind_, size_, K_, D_);
-  D_.resize(kind_ == Kind::kPinhole ? 8 : 4, 0.0);
+  // Pinhole: 8 (rational) or 12 (rational + thin prism s1..s4) coefficients.
+  D_.resize(kind_ == Kind::kPinhole ? (D_.size() > 8 ? 12 : 8) : 4, 0.0);
   if (kind_ == Kind::kFisheye) {
     // theta_d(theta) is invertible only while it increases; a fitted polynomial often turns
     // back before 90 degrees (the shipped "black" lens at 71 degrees), and pixels beyond
@@ -260,6 +262,10 @@ Point2 CameraModel::project(Point2 n) const {
         (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)));
     xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
     yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
+    if (D_.size() == 12) {  // thin prism
+      xd += r2 * (D_[8] + r2 * D_[9]);
+      yd += r2 * (D_[10] + r2 * D_[11]);
+    }
   }
   return {K_(0, 0) * xd + K_(0, 1) * yd + K_(0, 2), K_(1, 1) * yd + K_(1, 2)};
 }

@@ -34,6 +34,7 @@ struct Args {
   std::string model = "fisheye";
   std::string out, report, truth, save_views;
   bool json = false;
+  bool thin_prism = false;
   int views = 30;
   double max_seconds = 600;
   double magnify = 50;
@@ -160,6 +161,9 @@ int run(const Args& a) {
   CalibrationOptions opt;
   opt.kind = a.model == "fisheye" ? ips::CameraModel::Kind::kFisheye : ips::CameraModel::Kind::kPinhole;
   opt.min_views = a.min_views;
+  if (a.thin_prism && opt.kind != ips::CameraModel::Kind::kPinhole)
+    throw ips::InputError("--thin-prism needs --model pinhole");
+  opt.thin_prism = a.thin_prism;
   const CalibrationResult r = calibrate(obs, board, opt);
 
   // Human-readable report (stderr when --json takes stdout).
@@ -191,7 +195,7 @@ int run(const Args& a) {
     const auto d = compare_models(*truth, r.model, pts);
     char plain_text[160];
     try {
-      const auto plain = compare_models(*truth, calibrate_opencv_plain(obs, board, opt.kind), pts);
+      const auto plain = compare_models(*truth, calibrate_opencv_plain(obs, board, opt.kind, 8, opt.thin_prism), pts);
       std::snprintf(plain_text, sizeof plain_text, "max %.3f px, RMS %.3f px", plain.max_px, plain.rms_px);
     } catch (const cv::Exception& e) {
       std::snprintf(plain_text, sizeof plain_text, "fails: %s", e.err.c_str());
@@ -224,6 +228,7 @@ std::function<int()> setup(CLI::App& sub) {
   sub.add_option("--out", a->out, "Intrinsics YAML to write")->required();
   sub.add_option("--report", a->report, "Report PNG: coverage and magnified residuals");
   sub.add_flag("--json", a->json, "Print the numbers as JSON on stdout");
+  sub.add_flag("--thin-prism", a->thin_prism, "Pinhole: add the thin-prism terms (12 coefficients)");
   sub.add_option("--truth", a->truth, "True intrinsics (simulation): print how far the result projects from them");
   sub.add_option("--views", a->views, "Live: views to keep")->capture_default_str();
   sub.add_option("--save-views", a->save_views, "Live: directory for the kept views (default: OUT_views)");

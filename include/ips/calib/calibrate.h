@@ -19,6 +19,7 @@ namespace ips::calib {
 
 struct CalibrationOptions {
   CameraModel::Kind kind = CameraModel::Kind::kFisheye;
+  bool thin_prism = false;       ///< pinhole: add the thin-prism terms s1..s4 (12 coefficients)
   int min_views = 6;             ///< views with a usable board needed (after dropping outliers)
   int min_corners = 8;           ///< corners a view needs to be used
   double outlier_factor = 3.0;   ///< a view is an outlier above factor x the median per-view RMS
@@ -62,7 +63,8 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& observations, c
 /// Plain OpenCV on the same corners (every usable view, no outlier handling): the baseline
 /// a calibration must not be worse than.
 CameraModel calibrate_opencv_plain(const std::vector<BoardObservation>& observations,
-                                   const Board& board, CameraModel::Kind kind, int min_corners = 8);
+                                   const Board& board, CameraModel::Kind kind, int min_corners = 8,
+                                   bool thin_prism = false);
 
 /// Coverage grid used by the reports and the live mode: about 16 cells across, square cells.
 cv::Size coverage_grid(cv::Size image);
