@@ -93,7 +93,11 @@ std::vector<BoardObservation> observe_live(const Args& a, const Board& board, st
   const fs::path views_dir = a.save_views.empty()
                                  ? fs::path(fs::path(a.out).replace_extension("").string() + "_views")
                                  : fs::path(a.save_views);
-  source->open();
+  try {
+    source->open();
+  } catch (const ips::SourceError& e) {
+    throw ips::InputError(e.what());  // a wrong path or a busy device: nothing was written
+  }
   std::fprintf(stderr, "live calibration from %s: hold the board in view, still, in every part of "
                        "the image and at several tilts; kept views go to %s\n",
                source_name.c_str(), views_dir.string().c_str());

@@ -171,6 +171,9 @@ TEST(CalibCli, BadInputExitsTwoAndWritesNothing) {
   // A bad board spec, a bad model.
   expect_error("--images " + views.string() + " --board charuco:7x5:0.04", "board spec");
   expect_error("--images " + views.string() + " --model fish", "--model must be");
+  // Live from a device that is not there.
+  expect_error("--device /dev/v4l/by-id/no-such-camera", "cannot open");
+  EXPECT_FALSE(fs::exists(d / "intr_views"));
 }
 
 TEST(CalibCli, LiveModeOnAFileSourceKeepsStillViews) {
