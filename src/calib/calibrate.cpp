@@ -209,7 +209,7 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
       continue;
     }
     const CameraModel model(opt.kind, size, f.K, f.D);
-    std::vector<double> rms;
+    std::vector<double> typical;  // per view: median corner residual (one bad corner leaves it alone)
     double ss = 0.0;
     std::size_t n = 0;
     for (std::size_t k = 0; k < active.size(); ++k) {
@@ -217,13 +217,42 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
       v.rvec = f.rvecs[k];
       v.tvec = f.tvecs[k];
       residuals(v, observations[active[k]], board, model);
-      rms.push_back(v.rms);
+      std::vector<double> e;
+      for (const auto& r : v.residual) e.push_back(std::sqrt(r.dot(r)));
+      std::nth_element(e.begin(), e.begin() + static_cast<long>(e.size() / 2), e.end());
+      typical.push_back(e.empty() ? 0.0 : e[e.size() / 2]);
       for (const auto& r : v.residual) ss += r.dot(r);
       n += v.residual.size();
     }
     if (!opt.drop_outliers || round >= 5) break;
-    // Single corners far off the fit (a corner refined onto the wrong feature, e.g. at the
-    // image border) are removed first; views far off the rest after that.
+    // Views far off the rest (a blurred or moved frame) go first, as a whole; then single
+    // corners far off the fit (a corner refined onto the wrong feature, e.g. at the image
+    // border).
+    std::vector<double> sorted = typical;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+    const double median = sorted[sorted.size() / 2];
+    const double limit = std::max(opt.outlier_factor * median, median + opt.outlier_floor_px);
+    std::vector<std::size_t> keep;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      if (typical[k] > limit) {
+        char why[200];
+        std::snprintf(why, sizeof why,
+                      "outlier: its corners are typically %.2f px off the fit, > %.2f px (the views' median %.2f px)",
+                      typical[k], limit, median);
+        res.views[active[k]].why = why;
+      } else {
+        keep.push_back(active[k]);
+      }
+    }
+    if (keep.size() != active.size()) {
+      if (static_cast<int>(keep.size()) < opt.min_views) {
+        throw InputError("too few views: " + std::to_string(active.size() - keep.size()) +
+                         " of " + std::to_string(active.size()) + " views are outliers, fewer than " +
+                         std::to_string(opt.min_views) + " remain");
+      }
+      active = keep;
+      continue;
+    }
     const double corner_limit = std::max(opt.corner_outlier_factor * std::sqrt(ss / std::max<std::size_t>(1, n)),
                                          opt.corner_outlier_floor_px);
     int removed = 0;
@@ -251,28 +280,7 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
       active = still;
       continue;
     }
-    std::vector<double> sorted = rms;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-    const double median = sorted[sorted.size() / 2];
-    const double limit = std::max(opt.outlier_factor * median, median + opt.outlier_floor_px);
-    std::vector<std::size_t> keep;
-    for (std::size_t k = 0; k < active.size(); ++k) {
-      if (rms[k] > limit) {
-        char why[160];
-        std::snprintf(why, sizeof why, "outlier: per-view RMS %.2f px > %.2f px (median %.2f px)",
-                      rms[k], limit, median);
-        res.views[active[k]].why = why;
-      } else {
-        keep.push_back(active[k]);
-      }
-    }
-    if (keep.size() == active.size()) break;
-    if (static_cast<int>(keep.size()) < opt.min_views) {
-      throw InputError("too few views: " + std::to_string(active.size() - keep.size()) +
-                       " of " + std::to_string(active.size()) +
-                       " views are outliers, fewer than " + std::to_string(opt.min_views) + " remain");
-    }
-    active = keep;
+    break;
   }
   res.model = CameraModel(opt.kind, size, f.K, f.D);
   double ss = 0.0;

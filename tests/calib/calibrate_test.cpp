@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <random>
 
 #include <gtest/gtest.h>
 #include <opencv2/aruco/charuco.hpp>
@@ -142,4 +143,30 @@ TEST(Calibrate, BadInputIsNamed) {
   } catch (const ips::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("img2 is 800x600"), std::string::npos) << e.what();
   }
+}
+
+TEST(Calibrate, OutlierViewsAndCornersAreDroppedAndNamed) {
+  // A frame taken while the board moved (every corner off by ~1 px) and one corner refined
+  // onto the wrong feature (3 px off) in another view, among good simulated views.
+  auto v = calib_test::make_views("pinhole", kSanitized ? 12 : 20, 3);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n(0.0, 1.0);
+  auto& moved = v.observations[4];
+  ASSERT_GE(moved.px.size(), 8u);
+  for (auto& p : moved.px) p += cv::Point2d(n(rng), n(rng));
+  auto& wrong = v.observations[7];
+  ASSERT_GE(wrong.px.size(), 8u);
+  wrong.px[3] += cv::Point2d(3.0, -1.0);
+  ips::calib::CalibrationOptions opt;
+  opt.kind = ips::CameraModel::Kind::kPinhole;
+  const auto r = ips::calib::calibrate(v.observations, *v.board, opt);
+  EXPECT_FALSE(r.views[4].used);
+  EXPECT_EQ(r.views[4].why.rfind("outlier: its corners are typically", 0), 0u) << r.views[4].why;
+  EXPECT_TRUE(r.views[7].used);
+  EXPECT_EQ(r.views[7].corners_dropped, 1);
+  EXPECT_LE(r.rms, 0.1);
+  // Without the outlier handling the same data fits worse.
+  opt.drop_outliers = false;
+  const auto plain = ips::calib::calibrate(v.observations, *v.board, opt);
+  EXPECT_GT(plain.rms, 2 * r.rms);
 }

@@ -22,8 +22,11 @@ struct CalibrationOptions {
   bool thin_prism = false;       ///< pinhole: add the thin-prism terms s1..s4 (12 coefficients)
   int min_views = 6;             ///< views with a usable board needed (after dropping outliers)
   int min_corners = 8;           ///< corners a view needs to be used
-  double outlier_factor = 3.0;   ///< a view is an outlier above factor x the median per-view RMS
-  double outlier_floor_px = 0.5; ///< ... and above median + this
+  /// A view is an outlier when its median corner residual is above factor x the median of
+  /// all views' median residuals, and above that median + floor (a single bad corner does
+  /// not make a view an outlier; it is removed on its own, see below).
+  double outlier_factor = 3.0;
+  double outlier_floor_px = 0.4;
   double corner_outlier_factor = 6.0;   ///< a corner is an outlier above factor x the RMS
   double corner_outlier_floor_px = 0.75; ///< ... and above this
   bool drop_outliers = true;
