@@ -101,7 +101,9 @@ void BoardRenderer::render(const BoardPose& pose, const BoardLook& look, cv::Mat
         out[x] = {kNaNf, kNaNf};
         continue;
       }
-      out[x] = {static_cast<float>(o.x() + s * d.x()), static_cast<float>(o.y() + s * d.y())};
+      // Rays almost parallel to the board meet it very far away: clamp to stay in float range.
+      out[x] = {static_cast<float>(std::clamp(o.x() + s * d.x(), -1e6, 1e6)),
+                static_cast<float>(std::clamp(o.y() + s * d.y(), -1e6, 1e6))};
     }
   }
   // Region and colour of a board point: -1 = off the sheet (the floor shows).
