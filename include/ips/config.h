@@ -118,9 +118,15 @@ struct DaemonConfig {
   double stall_timeout_s = 2.0;  ///< watchdog: a thread without progress this long withholds WATCHDOG=1
 };
 
+/// Whether model_file must exist at load time (the daemon) or may not exist yet (`ips
+/// collect`, which gathers the pairs the model will be fitted on).
+enum class ModelFileCheck { kMustExist, kMayBeMissing };
+
 /// Parses and validates `path` (relative paths inside are resolved against its directory).
-DaemonConfig load_config(const std::filesystem::path& path);
-DaemonConfig parse_config(const std::string& yaml_text, const std::filesystem::path& path);
+DaemonConfig load_config(const std::filesystem::path& path,
+                         ModelFileCheck model_check = ModelFileCheck::kMustExist);
+DaemonConfig parse_config(const std::string& yaml_text, const std::filesystem::path& path,
+                          ModelFileCheck model_check = ModelFileCheck::kMustExist);
 
 /// Cross-checks the configuration against a loaded model file: every camera's model exists;
 /// if a camera's mapper needs the marker height, markers.height or every listed id must give one

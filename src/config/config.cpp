@@ -322,7 +322,8 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
 
 }  // namespace
 
-DaemonConfig parse_config(const std::string& text, const std::filesystem::path& path) {
+DaemonConfig parse_config(const std::string& text, const std::filesystem::path& path,
+                          ModelFileCheck model_check) {
   const std::string file = path.string();
   YAML::Node root;
   try {
@@ -357,7 +358,13 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
     r.fail(root["markers"]["dictionary"], "markers.dictionary", e.what());
   }
   c.detection.dictionary = c.markers.dictionary;
-  r.get_path("model_file", c.model_file, base, true);
+  if (model_check == ModelFileCheck::kMustExist) {
+    r.get_path("model_file", c.model_file, base, true);
+  } else {  // `ips collect` runs before `ips fit` has written the model file
+    std::string model;
+    r.get("model_file", model, true);
+    c.model_file = std::filesystem::path(model).is_absolute() ? std::filesystem::path(model) : base / model;
+  }
 
   if (r.has("fusion")) {
     MapReader f(r.node("fusion"), "fusion", file);
@@ -414,12 +421,12 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   return c;
 }
 
-DaemonConfig load_config(const std::filesystem::path& path) {
+DaemonConfig load_config(const std::filesystem::path& path, ModelFileCheck model_check) {
   std::ifstream in(path);
   if (!in) throw InputError(path.string() + ": cannot read the configuration file");
   std::stringstream text;
   text << in.rdbuf();
-  return parse_config(text.str(), path);
+  return parse_config(text.str(), path, model_check);
 }
 
 }  // namespace ips
