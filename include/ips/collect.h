@@ -115,4 +115,14 @@ class PairsFile {
   std::vector<Placement> placements_;
 };
 
+/// Which of the two candidates of from_two_distances() the cameras put the marker at: each
+/// camera in `seen` (name, its camera coordinates of the marker now) with >= 4 pairs in
+/// `pairs` fits a rigid map (`rt`) of its pairs so far and predicts the marker's floor
+/// position; the candidate nearer their mean prediction wins. Returns 0 (left), 1 (right) or
+/// -1 if no camera can tell yet; `how` says which side, who told and how far the candidates
+/// were from the prediction.
+int side_from_cameras(const PairsFile& pairs,
+                      const std::vector<std::pair<std::string, Eigen::Vector3d>>& seen,
+                      const std::array<Eigen::Vector2d, 2>& candidates, std::string& how);
+
 }  // namespace ips::collect

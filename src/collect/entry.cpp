@@ -77,6 +77,11 @@ bool parse_entry(std::string_view line, const EntryLimits& limits, Entry& out,
     if (c == "s" || c == "skip") return command(Entry::Kind::kSkip);
     if (c == "q" || c == "quit") return command(Entry::Kind::kQuit);
     if (c == "?" || c == "h" || c == "help") return command(Entry::Kind::kHelp);
+    double v = 0;
+    if (!number(c, v)) {
+      error = quoted(c) + " is neither a position nor a command (u, s, q, ?): " + kPositionHelp;
+      return false;
+    }
   }
   if (w[0] == "d") {
     // d DA DB Z [left|right]

@@ -20,6 +20,7 @@
 
 #include <opencv2/aruco.hpp>
 
+#include "collect_cameras.h"
 #include "command.h"
 #include "image_io.h"
 #include "ips/clock.h"
@@ -27,7 +28,6 @@
 #include "ips/config.h"
 #include "ips/detector.h"
 #include "ips/error.h"
-#include "ips/mapper.h"
 #include "ips/marker_geometry.h"
 #include "ips/source_factory.h"
 
@@ -48,69 +48,6 @@ struct Args {
   double max_spread = 0.01;
   double min_seen = 0.8;
 };
-
-// One camera as the daemon would run it.
-struct CameraRun {
-  std::string name;
-  CameraModel model;
-  std::unique_ptr<FrameSource> source;
-  std::unique_ptr<Detector> detector;
-  double fps = 30.0;
-  double edge_length = 0.2;
-};
-
-struct Capture {
-  std::vector<Eigen::Vector3d> samples;  // camera coordinates, one per frame the marker was in
-  int frames = 0;
-  std::string problem;  // why fewer frames than asked for were read
-};
-
-// Reads `n` frames captured after `after_ns` and locates `marker` in each.
-Capture capture(CameraRun& c, int marker, int n, std::int64_t after_ns) {
-  Capture out;
-  const auto limit = std::chrono::duration<double>(std::max(10.0, 4.0 * n / c.fps));
-  const auto deadline = std::chrono::steady_clock::now() + limit;
-  Frame f;
-  while (out.frames < n) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      out.problem = "only " + std::to_string(out.frames) + " of " + std::to_string(n) +
-                    " frames within " + std::to_string(static_cast<int>(limit.count())) + " s";
-      break;
-    }
-    FrameSource::ReadStatus status;
-    try {
-      status = c.source->read(f, std::chrono::milliseconds(500));
-    } catch (const SourceError& e) {
-      out.problem = e.what();
-      c.source->close();
-      try {
-        c.source->open();  // for the next placement
-      } catch (const std::exception&) {
-      }
-      break;
-    }
-    if (status == FrameSource::ReadStatus::kEnd) {
-      out.problem = "the source ended";
-      break;
-    }
-    if (status != FrameSource::ReadStatus::kFrame || f.t_mono_ns < after_ns) continue;
-    if (f.gray.size() != c.model.size()) {
-      out.problem = "frames are " + std::to_string(f.gray.cols) + "x" +
-                    std::to_string(f.gray.rows) + " but the intrinsics are for " +
-                    std::to_string(c.model.size().width) + "x" +
-                    std::to_string(c.model.size().height);
-      break;
-    }
-    ++out.frames;
-    for (const auto& d : c.detector->detect(f.gray, &c.model)) {
-      if (d.id != marker) continue;
-      const auto o = locate_marker(d, c.model, c.edge_length);
-      if (o.p_cam.allFinite()) out.samples.push_back(o.p_cam);
-      break;
-    }
-  }
-  return out;
-}
 
 std::string counts_text(const collect::PairsFile& pairs, const std::vector<CameraRun>& cams) {
   const auto n = pairs.counts();
@@ -143,44 +80,6 @@ void print_help(bool have_points, bool have_refs) {
   if (have_points)
     say("    (Enter)              the listed position as it is;  s  skip the listed position\n");
   say("    u                    undo the last placement;  q  quit (every placement is saved at once);  ?  help\n");
-}
-
-// The side of A->B the cameras put the marker on: each camera with >= 4 pairs fits a rigid
-// map of its pairs so far and predicts where it sees the marker now. -1 if none can tell.
-int side_from_cameras(const collect::PairsFile& pairs,
-                      const std::vector<std::pair<std::string, Eigen::Vector3d>>& seen,
-                      const std::array<Eigen::Vector2d, 2>& candidates, std::string& how) {
-  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  int n = 0;
-  std::string names;
-  for (const auto& [name, cam] : seen) {
-    std::vector<Eigen::Vector3d> c, w;
-    for (const auto& p : pairs.placements())
-      for (const auto& [pc_name, pc] : p.cameras)
-        if (pc_name == name) {
-          c.push_back(pc);
-          w.push_back(p.world);
-        }
-    if (c.size() < 4) continue;
-    auto rt = make_mapper("rt");
-    try {
-      rt->fit(c, w, FitOptions{});
-    } catch (const InputError&) {
-      continue;  // degenerate pairs so far (e.g. all in a line)
-    }
-    sum += rt->predict(cam).head<2>();
-    ++n;
-    names += (names.empty() ? "" : ", ") + name;
-  }
-  if (n == 0) return -1;
-  const Eigen::Vector2d seen_at = sum / n;
-  const double d0 = (candidates[0] - seen_at).norm(), d1 = (candidates[1] - seen_at).norm();
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "the %s side: %s put%s it %.2f m from it, %.2f m from the other",
-                d0 <= d1 ? "left" : "right", names.c_str(), n == 1 ? "s" : "", std::min(d0, d1),
-                std::max(d0, d1));
-  how = buf;
-  return d0 <= d1 ? 0 : 1;
 }
 
 int run(const Args& a) {
@@ -382,7 +281,13 @@ int run(const Args& a) {
     {
       std::vector<std::thread> threads;
       for (std::size_t i = 0; i < cams.size(); ++i)
-        threads.emplace_back([&, i] { captures[i] = capture(cams[i], a.marker, a.frames, entered_ns); });
+        threads.emplace_back([&, i] {
+          try {
+            captures[i] = capture(cams[i], a.marker, a.frames, entered_ns);
+          } catch (const std::exception& err) {  // e.g. out of memory: report, do not terminate
+            captures[i].problem = err.what();
+          }
+        });
       for (auto& t : threads) t.join();
     }
     collect::Placement placement;
@@ -433,7 +338,7 @@ int run(const Args& a) {
     if (e.kind == Entry::Kind::kDistances) {
       int side = e.side == collect::Side::kLeft ? 0 : e.side == collect::Side::kRight ? 1 : -1;
       std::string how = side == 0 ? "left, as typed" : "right, as typed";
-      if (side < 0) side = side_from_cameras(pairs, placement.cameras, candidates, how);
+      if (side < 0) side = collect::side_from_cameras(pairs, placement.cameras, candidates, how);
       if (side < 0) {
         say("  REFUSED: the distances fit two places, " +
             xyz({candidates[0].x(), candidates[0].y(), e.z}) + " (left of A->B) and " +

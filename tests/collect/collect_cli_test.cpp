@@ -85,7 +85,7 @@ TEST_F(CollectCli, TypingErrorsAreAskedAgainAndUndoRemovesAPlacement) {
   EXPECT_EQ(*status, 0) << s.output();
   const std::string out = s.output();
   for (const char* expected :
-       {"use spaces between the numbers, not commas", "'abc'", "expected 3 numbers, got 2",
+       {"use spaces between the numbers, not commas", "'abc' is neither a position nor a command", "expected 3 numbers, got 2",
         "z (height) 9 m is out of range", "'nan' is not a number",
         "distances need the reference points", "type the marker's position", "nothing to undo",
         "nothing to skip", "recorded placement 1 at x 2.300  y 1.000  z 0.000 m; pairs red 1",
@@ -169,6 +169,30 @@ TEST_F(CollectCli, WalksThroughAListOfPositions) {
   EXPECT_LT((data.cameras[0].cam[1] - truth(2)).head<2>().norm(), 0.01);
 }
 
+// The same on a file source (a directory of images, as the daemon reads it): frames of the
+// marker at place 1 rendered by `ips sim render`, the red camera's intrinsics from the config.
+TEST_F(CollectCli, WorksOnAFileSource) {
+  place(1);
+  ASSERT_EQ(test::run({test::bin("ips"), "sim", "render", "--scene", (dir_ / "scene.yaml").string(), "--camera",
+                       "red", "--frames", "2", "--out", (dir_ / "frames").string()},
+                      dir_ / "render.log"),
+            0)
+      << test::read_file(dir_ / "render.log");
+  std::ofstream(dir_ / "file.ipsd.yaml") << "cameras:\n  - {name: red, source: file, path: frames, fps: 10, "
+                                            "intrinsics: "
+                                         << IPS_TEST_DATA_DIR << "/ou2023/intrinsics_red.yaml}\nmodel_file: m.json\n";
+  test::CollectSession s(collect("file.ipsd.yaml"), dir_ / "log.txt");
+  ASSERT_TRUE(s.wait_prompt(1)) << s.output();
+  s.type("2.0 1.3 0.1");
+  ASSERT_TRUE(s.wait_prompt(2)) << s.output();
+  const auto status = s.finish();
+  ASSERT_TRUE(status.has_value());
+  EXPECT_EQ(*status, 0) << s.output();
+  const CalibData data = load_calib_csv(dir_ / "pairs.csv");
+  ASSERT_EQ(data.cameras.size(), 1u) << s.output();
+  EXPECT_LT((data.cameras[0].cam[0] - truth(1)).head<2>().norm(), 0.01) << s.output();
+}
+
 TEST_F(CollectCli, RefusesAMarkerThatMoves) {
   test::CollectSession s(collect("moving.ipsd.yaml"), dir_ / "log.txt");
   ASSERT_TRUE(s.wait_prompt(1)) << s.output();
@@ -191,7 +215,9 @@ TEST_F(CollectCli, BadOptionsExitTwoAndWriteNothing) {
       {{test::bin("ips"), "collect", "--config", (dir_ / "none.yaml").string(), "--marker", "0", "--out",
         (dir_ / "pairs.csv").string()},
        "none.yaml"},
-      {collect("scene.ipsd.yaml", {"--marker", "100"}), "not in DICT_4X4_100"},
+      {{test::bin("ips"), "collect", "--config", (dir_ / "scene.ipsd.yaml").string(), "--marker", "100", "--out",
+        (dir_ / "pairs.csv").string()},
+       "not in DICT_4X4_100"},
       {collect("scene.ipsd.yaml", {"--camera", "blue"}), "--camera blue"},
       {collect("scene.ipsd.yaml", {"--frames", "0"}), "--frames"},
       {collect("scene.ipsd.yaml", {"--ref-a", "0", "0"}), "--ref-b"},

@@ -52,7 +52,8 @@ TEST(CollectEntry, PositionsCommandsAndDistances) {
 TEST(CollectEntry, TypingErrorsSayWhatWasExpected) {
   EXPECT_NE(parse_error("1,2").find("commas"), std::string::npos);
   EXPECT_NE(parse_error("1,2,0").find("commas"), std::string::npos);
-  EXPECT_NE(parse_error("abc").find("3 numbers"), std::string::npos);
+  EXPECT_NE(parse_error("abc").find("'abc' is neither a position nor a command"), std::string::npos);
+  EXPECT_NE(parse_error("1.5").find("3 numbers"), std::string::npos);
   EXPECT_NE(parse_error("1 2").find("3 numbers"), std::string::npos);
   EXPECT_NE(parse_error("1 2 3 4").find("3 numbers"), std::string::npos);
   EXPECT_NE(parse_error("1 x 0").find("'x' is not a number"), std::string::npos);

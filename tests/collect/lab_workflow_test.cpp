@@ -137,7 +137,7 @@ TEST(LabWorkflow, CalibrateCollectFitThenIpsdIsWithinOneCentimetre) {
            ", intrinsics: " + intrinsics[name].string() + "}\n";
     return c + "model_file: model.json\n" + rest;
   };
-  std::ofstream(dir / "collect.yaml") << config("lab.yaml", 10, "markers: {edge_length: 0.20}\n");
+  std::ofstream(dir / "collect.yaml") << config("lab.yaml", 20, "markers: {edge_length: 0.20}\n");
 
   // ---- `ips collect`: place, type, wait for the next prompt; repeat.
   {

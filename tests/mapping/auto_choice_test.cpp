@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -35,7 +36,9 @@ class AutoChoice : public ::testing::Test {
     fs::remove(log);
     const int status = run(args, log, std::chrono::seconds(300));
     std::ifstream in(log);
-    out.assign(std::istreambuf_iterator<char>(in), {});
+    std::stringstream text;
+    text << in.rdbuf();
+    out = text.str();
     return status;
   }
   std::map<std::string, std::string> chosen(const fs::path& model) const {
