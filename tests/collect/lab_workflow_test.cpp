@@ -158,6 +158,9 @@ TEST(LabWorkflow, CalibrateCollectFitThenIpsdIsWithinOneCentimetre) {
     EXPECT_EQ(out.find("MOVED"), std::string::npos) << out;
     EXPECT_NE(out.find("(the left side: "), std::string::npos) << "no side told by the cameras\n" << out;
     EXPECT_EQ(out.find("(the right side: "), std::string::npos) << "a wrong side\n" << out;
+    int refused = 0;
+    for (std::size_t at = 0; (at = out.find("REFUSED", at)) != std::string::npos; ++at) ++refused;
+    std::printf("[ collect  ] %zu placements typed, %d refused\n", places.size(), refused);
   }
   const CalibData pairs = load_calib_csv(dir / "pairs.csv");
   for (const std::string name : kCameras) {
