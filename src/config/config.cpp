@@ -363,6 +363,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   } else {  // `ips collect` runs before `ips fit` has written the model file
     std::string model;
     r.get("model_file", model, true);
+    if (model.empty()) r.fail(root["model_file"], "model_file", "empty path");
     c.model_file = std::filesystem::path(model).is_absolute() ? std::filesystem::path(model) : base / model;
   }
 
