@@ -106,6 +106,28 @@ TEST(CollectSteadiness, SeenMovedOrIntermittent) {
   EXPECT_NEAR(v.spread, 0.13 - (0.8 + 0.004 + 0.13) / 9, 1e-12);
 }
 
+// The cameras tell the side: red's pairs are an exact rigid map (world = R cam + t, a quarter
+// turn about z plus a shift); where red sees the marker now maps onto one candidate.
+TEST(CollectSide, TheCameraThatSeesItTellsTheSide) {
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  const Eigen::Vector3d t(2.0, 1.0, 2.1);
+  auto cam_of = [&](const Eigen::Vector3d& w) { return Eigen::Vector3d(R.transpose() * (w - t)); };
+  PairsFile pairs;
+  const std::array<Eigen::Vector2d, 2> candidates = from_two_distances({0, 0}, {4, 0}, 5.0, std::sqrt(17.0));
+  std::string how;
+  const std::vector<std::pair<std::string, Eigen::Vector3d>> seen_right = {{"red", cam_of({3, -4, 0})}};
+  for (const Eigen::Vector3d& w : {Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(3, 1, 0.1), Eigen::Vector3d(2, 3, 0),
+                                  Eigen::Vector3d(0.5, 2.5, 0.2)}) {
+    EXPECT_EQ(side_from_cameras(pairs, seen_right, candidates, how), -1);  // fewer than 4 pairs
+    pairs.add({w, {{"red", cam_of(w)}, {"white", Eigen::Vector3d(0, 0, 2)}}});
+  }
+  EXPECT_EQ(side_from_cameras(pairs, seen_right, candidates, how), 1);
+  EXPECT_NE(how.find("the right side: red puts it 0.00 m from it, 8.00 m from the other"), std::string::npos) << how;
+  EXPECT_EQ(side_from_cameras(pairs, {{"red", cam_of({3, 4, 0})}}, candidates, how), 0);
+  EXPECT_EQ(side_from_cameras(pairs, {{"black", cam_of({3, 4, 0})}}, candidates, how), -1);  // no pairs
+}
+
 TEST(CollectPairsFile, TextUndoAndResume) {
   PairsFile f;
   f.add({{1.0, 2.0, 0.1}, {{"red", {0.1, 0.2, 2.0}}, {"white", {-0.5, 0.25, 2.1}}}});
