@@ -24,6 +24,10 @@ struct FitOptions {
   std::uint64_t seed = 1;              ///< makes stochastic fits (ann restarts) deterministic
   ErrorMetric metric = ErrorMetric::k3d;  ///< for `auto`
   int folds = 10;                      ///< k for the cross-validation `auto` runs
+  /// For `auto`: will the daemon know each marker's height (markers.height or per-ID
+  /// heights in its config, the normal case)? Then `plane` competes, scored by its true
+  /// error (its z is the known height); otherwise it cannot be used and does not compete.
+  bool heights_known = true;
 };
 
 /// "3d" / "2d".

@@ -1,5 +1,6 @@
 // `ips fit`: fit one mapper per camera on a calibration CSV and write the model file.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -7,9 +8,12 @@
 #include "command.h"
 #include "error_table.h"
 #include "ips/calib_data.h"
+#include "ips/config.h"
 #include "ips/cross_validation.h"
 #include "ips/error.h"
 #include "ips/model_file.h"
+
+#include <nlohmann/json.hpp>
 
 namespace ips::cli {
 namespace {
@@ -32,9 +36,31 @@ nlohmann::json training_summary(const CalibData& data, const CalibSet& set, cons
           {"seed", options.seed},   {"fit_errors", errors_to_json(fit_errors)}};
 }
 
+// Why `auto` chose what it chose, from the CV table it stores in the model file.
+void explain_auto(const std::string& camera, const nlohmann::json& params) {
+  const int folds = params["folds"].get<int>();
+  const std::string metric = params["metric"].get<std::string>();
+  const std::string key = metric == "2d" ? "err2d_mean" : "err3d_mean";
+  std::vector<std::pair<double, std::string>> ranked;
+  for (const auto& [name, row] : params["cv_mean_error"].items())
+    if (row.contains(key)) ranked.emplace_back(row[key].get<double>(), name);
+  std::sort(ranked.begin(), ranked.end());
+  std::string next;
+  for (std::size_t i = 1; i < ranked.size() && i < 4; ++i) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s%s %.2f", i > 1 ? ", " : "", ranked[i].second.c_str(),
+                  ranked[i].first * 100);
+    next += buf;
+  }
+  std::printf("%s: auto chose '%s': least %d-fold cross-validated mean %s error, %.2f cm (next: %s cm)\n",
+              camera.c_str(), params["chosen"].get<std::string>().c_str(), folds,
+              metric == "2d" ? "2-D" : "3-D", ranked.empty() ? NAN : ranked[0].first * 100,
+              next.c_str());
+}
+
 std::function<int()> setup(CLI::App& sub) {
   struct Args {
-    std::string data, method, out, metric = "3d";
+    std::string data, method, out, metric = "3d", heights, config;
     std::vector<std::string> cameras;
     std::uint64_t seed = 1;
     int folds = 10;
@@ -50,12 +76,35 @@ std::function<int()> setup(CLI::App& sub) {
       ->capture_default_str();
   sub.add_option("--folds", args->folds, "auto: k of its k-fold cross-validation")
       ->capture_default_str();
+  auto* heights =
+      sub.add_option("--heights", args->heights,
+                     "auto: known (default, the daemon's normal case: markers.height set; plane "
+                     "competes) or unknown (plane cannot be used and does not compete)");
+  sub.add_option("--config", args->config,
+                 "auto: the ipsd configuration tells whether the marker heights are known")
+      ->excludes(heights);
   return [args] {
     FitOptions options;
     options.seed = args->seed;
     options.metric = parse_metric(args->metric, "--metric");
     options.folds = args->folds;
     if (options.folds < 2) throw InputError("--folds: must be at least 2");
+    std::string heights_reason = "--heights known, the default";
+    if (!args->heights.empty()) {
+      if (args->heights != "known" && args->heights != "unknown")
+        throw InputError("--heights: expected known or unknown, got '" + args->heights + "'");
+      options.heights_known = args->heights == "known";
+      heights_reason = "--heights " + args->heights;
+    } else if (!args->config.empty()) {
+      // The same test the daemon applies before it accepts a mapper that needs heights.
+      const DaemonConfig config = load_config(args->config, ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
+      options.heights_known = !std::isnan(config.markers.height);
+      for (const auto& [id, info] : config.markers.ids)
+        options.heights_known = options.heights_known || !std::isnan(info.height);
+      heights_reason = args->config + (options.heights_known
+                                           ? " gives marker heights (markers.height / ids.<id>.height)"
+                                           : " gives no marker height");
+    }
     make_mapper(args->method);  // unknown name -> error before reading anything
     const CalibData data = load_calib_csv(args->data);
     std::vector<const CalibSet*> sets;
@@ -97,6 +146,15 @@ std::function<int()> setup(CLI::App& sub) {
         "fitted '%s' on %s -> %s\ntraining-set errors (not a held-out estimate; use `ips cv`):\n",
         args->method.c_str(), data.source.c_str(), args->out.c_str());
     print_error_table("camera", rows);
+    if (args->method == "auto") {
+      std::printf("marker heights %s (%s): %s\n", options.heights_known ? "known" : "unknown",
+                  heights_reason.c_str(),
+                  options.heights_known
+                      ? "plane competed, scored by its true error (its z is the known height)"
+                      : "plane cannot be used without them and did not compete");
+      for (const CalibSet* set : sets)
+        explain_auto(set->camera, models.cameras.at(set->camera).mapper->to_json());
+    }
     return 0;
   };
 }

@@ -1,7 +1,9 @@
 // `auto`: per camera, the method with the least k-fold cross-validated mean error on the
 // training pairs (metric 3d or 2d), refitted on all pairs. The CV table is kept with the
 // parameters so the model file shows why the method was chosen. Candidates: every registered
-// method except auto itself, and plane only for the 2d metric (it needs the marker height).
+// method except auto itself; plane only when the marker heights will be known in the daemon
+// (FitOptions::heights_known): it is given the height instead of estimating it, so its
+// cross-validated 3-D error is its true error there (z exact, the 2-D error is all of it).
 #include <cmath>
 #include <limits>
 
@@ -34,9 +36,8 @@ class AutoMapper final : public Mapper {
     double best = std::numeric_limits<double>::infinity();
     for (const auto& name : mapper_names()) {
       if (name == "auto") continue;
-      // plane is given the marker height instead of estimating it, so its z error is zero by
-      // construction: it competes on the floor-plane (2d) metric only.
-      if (name == "plane" && options.metric != ErrorMetric::k2d) continue;
+      // plane needs the height at run time: without it the daemon cannot use it at all.
+      if (name == "plane" && !options.heights_known) continue;
       if (make_mapper(name)->min_points() > train_size) continue;  // too few pairs for it
       CameraErrors e;
       try {
@@ -58,6 +59,7 @@ class AutoMapper final : public Mapper {
     chosen->fit(cam, world, options);
     chosen_ = std::move(chosen);
     metric_ = options.metric;
+    heights_known_ = options.heights_known;
     folds_ = folds;
     table_ = table;
   }
@@ -69,6 +71,7 @@ class AutoMapper final : public Mapper {
   nlohmann::json to_json() const override {
     return {{"chosen", chosen_->method()},
             {"metric", metric_name(metric_)},
+            {"heights_known", heights_known_},
             {"folds", folds_},
             {"cv_mean_error", table_},
             {"model", chosen_->to_json()}};
@@ -81,6 +84,13 @@ class AutoMapper final : public Mapper {
     chosen->from_json(member(p, "model"));
     metric_ = parse_metric(get_string(p, "metric"), "parameter 'metric'");
     folds_ = get_int(p, "folds", 2, 1000000);
+    // Files written before the key existed: plane competed only when heights were known.
+    heights_known_ = name == "plane";
+    if (p.contains("heights_known")) {
+      if (!p["heights_known"].is_boolean())
+        throw InputError("parameter 'heights_known': expected true or false");
+      heights_known_ = p["heights_known"].get<bool>();
+    }
     table_ = member(p, "cv_mean_error");
     chosen_ = std::move(chosen);
   }
@@ -88,6 +98,7 @@ class AutoMapper final : public Mapper {
  private:
   std::unique_ptr<Mapper> chosen_ = make_rigid();
   ErrorMetric metric_ = ErrorMetric::k3d;
+  bool heights_known_ = true;
   int folds_ = 10;
   nlohmann::json table_ = nlohmann::json::object();
 };

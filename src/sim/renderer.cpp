@@ -190,6 +190,7 @@ MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose
   t.centre_cam = cam.world_to_camera({pose.x, pose.y, pose.z});
   t.formula.id = marker.id;
   t.formula.edge_length = marker.length;
+  if (!pose.present) return t;  // picked up: not visible anywhere
   bool visible = true;
   for (std::size_t i = 0; i < 4; ++i) {
     const Eigen::Vector3d pc =
@@ -230,6 +231,9 @@ void CameraRenderer::render(double t, cv::Mat& gray, std::uint64_t noise_index) 
     } else {
       p.poses.push_back(scene_.marker_pose_at(i, t));
     }
+    // A marker picked up during the exposure is drawn only for the time it was there.
+    std::erase_if(p.poses, [](const MarkerPose& pose) { return !pose.present; });
+    if (p.poses.empty()) continue;
     placed.push_back(std::move(p));
   }
   render_markers(placed, gray, noise_index);

@@ -1,6 +1,7 @@
 #include "ips/sim/scene.h"
 
 #include <cmath>
+#include <fstream>
 #include <numbers>
 #include <stdexcept>
 
@@ -93,12 +94,46 @@ class Reader {
 
 Eigen::Vector2d vec2(const std::vector<double>& v) { return {v[0], v[1]}; }
 
-Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::string& path) {
-  r.only_keys(
-      n, path,
-      {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading"});
+// A placements trajectory: poses [x, y], [x, y, height] or [x, y, height, yaw_deg] (the
+// marker's own height / yaw_deg where left out) and the control file (relative to the scene).
+void read_placements(const Reader& r, const YAML::Node& n, const std::string& path,
+                     const std::filesystem::path& scene_dir, const MarkerPose& start,
+                     Trajectory& t) {
+  const std::string control = r.text(n, path, "control", "");
+  if (control.empty()) r.fail(n, path + "control", "missing (the file that holds the index)");
+  t.control = std::filesystem::path(control).is_absolute() ? std::filesystem::path(control)
+                                                           : scene_dir / control;
+  const YAML::Node pts = n["points"];
+  if (!pts || !pts.IsSequence() || pts.size() < 1) {
+    r.fail(pts ? pts : n, path + "points", "expected a list of [x, y(, height(, yaw_deg))] poses");
+  }
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    YAML::Node holder;
+    holder["p"] = pts[i];
+    const std::string key = path + "points[" + std::to_string(i) + "]";
+    const auto v = r.numbers(holder, key, "p", 2, 4);
+    MarkerPose pose = start;
+    pose.x = v[0];
+    pose.y = v[1];
+    if (v.size() > 2) pose.z = v[2];
+    if (v.size() > 3) pose.yaw = v[3] * kDeg;
+    if (pose.z < 0) r.fail(pts[i], key, "height must be >= 0");
+    t.placements.push_back(pose);
+  }
+}
+
+Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::string& path,
+                           const std::filesystem::path& scene_dir, const MarkerPose& start) {
+  r.only_keys(n, path,
+              {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading",
+               "control"});
   Trajectory t;
   const std::string type = r.text(n, path, "type", "");
+  if (type == "placements") {
+    t.kind = Trajectory::Kind::kPlacements;
+    read_placements(r, n, path, scene_dir, start, t);
+    return t;
+  }
   t.speed = r.number(n, path, "speed", 0.0, true);
   if (t.speed < 0) r.fail(n["speed"], path + "speed", "must be >= 0");
   const std::string heading = r.text(n, path, "heading", "path");
@@ -135,7 +170,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
     }
   } else {
     r.fail(n["type"] ? n["type"] : n, path + "type",
-           "expected circle, line or waypoints, got '" + type + "'");
+           "expected circle, line, waypoints or placements, got '" + type + "'");
   }
   return t;
 }
@@ -158,6 +193,15 @@ void along_polyline(const std::vector<Eigen::Vector2d>& pts, double s, Eigen::Ve
     }
     s -= len;
   }
+}
+
+// The index a placements control file holds, or -1 (missing, empty, not a whole number).
+long read_index(const std::filesystem::path& control) {
+  std::ifstream in(control);
+  long index = -1;
+  std::string rest;
+  if (!(in >> index) || (in >> rest)) return -1;
+  return index;
 }
 
 }  // namespace
@@ -306,7 +350,10 @@ Scene Scene::load(const std::filesystem::path& path) {
       mk.start.z = r.number(m, p, "height", 0.0);
       if (mk.start.z < 0) r.fail(m["height"], p + "height", "must be >= 0");
       mk.start.yaw = r.number(m, p, "yaw_deg", 0.0) * kDeg;
-      if (m["trajectory"]) mk.trajectory = read_trajectory(r, m["trajectory"], p + "trajectory.");
+      if (m["trajectory"]) {
+        mk.trajectory =
+            read_trajectory(r, m["trajectory"], p + "trajectory.", path.parent_path(), mk.start);
+      }
       scene.markers.push_back(mk);
     }
   }
@@ -337,6 +384,14 @@ MarkerPose Scene::marker_pose_at(std::size_t index, double t) const {
     case Trajectory::Kind::kWaypoints:
       along_polyline(tr.points, s, pos, dir);
       break;
+    case Trajectory::Kind::kPlacements: {
+      const long placed = read_index(tr.control);
+      if (placed < 0 || placed >= static_cast<long>(tr.placements.size())) {
+        pose.present = false;
+        return pose;
+      }
+      return tr.placements[static_cast<std::size_t>(placed)];
+    }
   }
   pose.x = pos.x();
   pose.y = pos.y();

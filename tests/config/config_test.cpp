@@ -201,6 +201,17 @@ watchdog: {stall_timeout: 3}
   EXPECT_DOUBLE_EQ(c.stall_timeout_s, 3.0);
 }
 
+// `ips collect` reads the configuration before `ips fit` has written the model file.
+TEST_F(ConfigTest, ModelFileMayBeMissingForCollect) {
+  const std::string m = kMinimal;
+  const std::string text = std::string(kMinimal).replace(m.find("model.json"), 10, "later.json");
+  const DaemonConfig c = parse_config(text, dir_ / "ipsd.yaml", ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
+  EXPECT_EQ(c.model_file, dir_ / "later.json");
+  expect_error(text, {"model_file: no such file"});  // the daemon still needs it
+  const std::string empty = std::string(kMinimal).replace(m.find("model.json"), 10, "\"\"");
+  EXPECT_THROW(parse_config(empty, dir_ / "ipsd.yaml", ConfigChecks{.intrinsics_exist = true, .model_file_exists = false}), InputError);
+}
+
 TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
   std::string m = kMinimal;
   expect_error(m + "colour: red\n", {"ipsd.yaml:7:1: colour: unknown key"});

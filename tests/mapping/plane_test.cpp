@@ -104,17 +104,29 @@ TEST(AutoMapper, PicksTheBestCrossValidatedMethod) {
   const std::vector<Eigen::Vector3d> world(s.world.begin(), s.world.begin() + 24);
   ips::FitOptions options;
   options.folds = 2;
-  options.metric = ips::ErrorMetric::k2d;
+  options.metric = ips::ErrorMetric::k2d;  // heights known: the default
   auto a2 = ips::make_mapper("auto");
   a2->fit(cam, world, options);
   EXPECT_EQ(a2->to_json()["chosen"], "plane");
   EXPECT_TRUE(a2->needs_height());
 
+  // Heights known (the default) under the 3-D metric: plane competes with its true error,
+  // which is its 2-D error (its z is the given height), and wins here.
   options.metric = ips::ErrorMetric::k3d;
+  auto known = ips::make_mapper("auto");
+  known->fit(cam, world, options);
+  const nlohmann::json k = known->to_json();
+  EXPECT_EQ(k["chosen"], "plane");
+  EXPECT_EQ(k["heights_known"], true);
+  EXPECT_EQ(k["cv_mean_error"]["plane"]["err3d_mean"], k["cv_mean_error"]["plane"]["err2d_mean"]);
+
+  // Heights unknown: plane cannot be used and does not compete.
+  options.heights_known = false;
   auto a3 = ips::make_mapper("auto");
   a3->fit(cam, world, options);
   const nlohmann::json p = a3->to_json();
   EXPECT_FALSE(p["cv_mean_error"].contains("plane"));
+  EXPECT_EQ(p["heights_known"], false);
   std::string best;
   double best_err = 1e9;
   for (const auto& [name, row] : p["cv_mean_error"].items())

@@ -119,6 +119,129 @@ fs::path write_scene(const std::string& name, const std::string& body) {
   return p;
 }
 
+// What the README's scene section promises a reader, each statement pinned down.
+TEST(Scene, DocumentedTrajectoryConventions) {
+  const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
+  const double deg = std::numbers::pi / 180;
+  const auto scene = ips::sim::Scene::load(write_scene(
+      "conventions.yaml",
+      "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n"
+      "markers:\n"
+      // 0: counter-clockwise circle, 1: clockwise, both with a 10 degree yaw offset
+      "  - {id: 0, yaw_deg: 10, height: 0.1,\n"
+      "     trajectory: {type: circle, center: [2, 2], radius: 1, speed: 0.5}}\n"
+      "  - {id: 1, yaw_deg: 10, trajectory: {type: circle, center: [2, 2], radius: 1, speed: 0.5,"
+      " clockwise: true}}\n"
+      // 2: a line (x/y given and ignored), 3: waypoints, 4: the same line without x/y
+      "  - {id: 2, x: 0.3, y: 0.4, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1}}\n"
+      "  - {id: 3, trajectory: {type: waypoints, points: [[1, 1], [1, 3], [3, 3]], speed: 1}}\n"
+      "  - {id: 4, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1}}\n"
+      "  - {id: 5, yaw_deg: 25, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1,"
+      " heading: fixed}}\n"));
+  auto heading = [](double yaw) { return std::remainder(yaw, 2 * std::numbers::pi); };
+  // Circle at t = 0: at centre + (radius, 0); counter-clockwise moves towards +y (heading
+  // +90 deg), clockwise towards -y; yaw_deg is added to the heading of travel.
+  auto c = scene.marker_pose(0, 0.0);
+  EXPECT_NEAR(c.x, 3.0, 1e-12);
+  EXPECT_NEAR(c.y, 2.0, 1e-12);
+  EXPECT_NEAR(c.z, 0.1, 1e-12);
+  EXPECT_NEAR(heading(c.yaw - (90 + 10) * deg), 0.0, 1e-12);
+  EXPECT_GT(scene.marker_pose(0, 0.1).y, 2.0);
+  c = scene.marker_pose(1, 0.0);
+  EXPECT_NEAR(c.x, 3.0, 1e-12);
+  EXPECT_NEAR(heading(c.yaw - (-90 + 10) * deg), 0.0, 1e-12);
+  EXPECT_LT(scene.marker_pose(1, 0.1).y, 2.0);
+  // Line at t = 0: at `from`, heading towards `to`; x/y of the marker are ignored.
+  auto l = scene.marker_pose(2, 0.0);
+  EXPECT_NEAR(l.x, 1.0, 1e-12);
+  EXPECT_NEAR(l.y, 1.0, 1e-12);
+  EXPECT_NEAR(heading(l.yaw), 0.0, 1e-12);
+  for (double t : {0.0, 0.7, 2.5, 3.9}) {
+    EXPECT_EQ(scene.marker_pose(2, t).x, scene.marker_pose(4, t).x);
+    EXPECT_EQ(scene.marker_pose(2, t).y, scene.marker_pose(4, t).y);
+  }
+  // The heading flips by 180 degrees at `to` (t = 2 s) and back at `from` (t = 4 s).
+  EXPECT_NEAR(heading(scene.marker_pose(2, 1.99).yaw), 0.0, 1e-12);
+  EXPECT_NEAR(scene.marker_pose(2, 2.01).x, 2.99, 1e-9);
+  EXPECT_NEAR(std::abs(heading(scene.marker_pose(2, 2.01).yaw)), std::numbers::pi, 1e-12);
+  EXPECT_NEAR(std::abs(heading(scene.marker_pose(2, 3.99).yaw)), std::numbers::pi, 1e-12);
+  EXPECT_NEAR(heading(scene.marker_pose(2, 4.01).yaw), 0.0, 1e-12);
+  EXPECT_NEAR(scene.marker_pose(2, 4.01).x, 1.01, 1e-9);
+  // heading: fixed keeps yaw_deg whatever the direction of travel.
+  EXPECT_NEAR(scene.marker_pose(5, 3.0).yaw, 25 * deg, 1e-12);
+  // Waypoints at t = 0: at the first point heading to the second; a closed loop (the last
+  // point leads back to the first).
+  auto w = scene.marker_pose(3, 0.0);
+  EXPECT_NEAR(w.x, 1.0, 1e-12);
+  EXPECT_NEAR(w.y, 1.0, 1e-12);
+  EXPECT_NEAR(heading(w.yaw - 90 * deg), 0.0, 1e-12);
+  const double loop = 2 + 2 + std::hypot(2.0, 2.0);
+  w = scene.marker_pose(3, loop - 0.5);  // on the closing leg (3, 3) -> (1, 1)
+  EXPECT_NEAR(heading(w.yaw + 135 * deg), 0.0, 1e-12);
+  EXPECT_NEAR(scene.marker_pose(3, loop + 0.5).y, 1.5, 1e-9);
+}
+
+// rotation_deg: [roll, pitch, yaw] turn the straight-down camera about the WORLD x axis by
+// roll, then about the world y axis by pitch, then about the world z axis by yaw:
+// R_wc = Rz(yaw) Ry(pitch) Rx(roll) R_down. Axes worked out by hand below.
+TEST(Scene, RotationDegOrderAndSigns) {
+  const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
+  auto camera = [&](const std::string& rot) {
+    return ips::sim::Scene::load(
+               write_scene("rot.yaml", "cameras:\n  - name: red\n    intrinsics: " + intr +
+                                           "\n    position: [1, 1, 2]\n    rotation_deg: " +
+                                           rot + "\n"))
+        .cameras[0]
+        .R_wc;
+  };
+  // Roll 90 first turns the optical axis from -z to +y and image y to -z; yaw 90 then turns
+  // about z: image x -> +y, image y stays -z, optical axis -> -x. (Yaw first, then roll,
+  // would give an optical axis along +y.)
+  Eigen::Matrix3d R = camera("[90, 0, 90]");
+  EXPECT_TRUE(R.col(0).isApprox(Eigen::Vector3d(0, 1, 0), 1e-12)) << R;
+  EXPECT_LT((R.col(1) - Eigen::Vector3d(0, 0, -1)).norm(), 1e-12) << R;
+  EXPECT_LT((R.col(2) - Eigen::Vector3d(-1, 0, 0)).norm(), 1e-12) << R;
+  // Signs: +roll tilts the view towards +y, +pitch towards -x, +yaw turns image x from +x to +y.
+  const double s = std::sin(10 * std::numbers::pi / 180), c = std::cos(10 * std::numbers::pi / 180);
+  EXPECT_LT((camera("[10, 0, 0]").col(2) - Eigen::Vector3d(0, s, -c)).norm(), 1e-12);
+  EXPECT_LT((camera("[0, 10, 0]").col(2) - Eigen::Vector3d(-s, 0, -c)).norm(), 1e-12);
+  EXPECT_LT((camera("[0, 0, 10]").col(0) - Eigen::Vector3d(c, s, 0)).norm(), 1e-12);
+}
+
+// placements: the marker sits at the pose whose index the control file holds; anything else
+// there means it was picked up. Poses default to the marker's height and yaw_deg.
+TEST(Scene, PlacementsFollowTheControlFile) {
+  const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
+  const fs::path scene_file = write_scene(
+      "placements.yaml",
+      "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n"
+      "markers:\n  - {id: 0, height: 0.05, yaw_deg: 30, trajectory: {type: placements, "
+      "control: placement_index.txt, points: [[1, 2], [2, 3, 0.15], [0.5, 0.25, 0, -90]]}}\n");
+  const fs::path control = scene_file.parent_path() / "placement_index.txt";
+  fs::remove(control);
+  const auto scene = ips::sim::Scene::load(scene_file);
+  EXPECT_FALSE(scene.marker_pose(0, 0.0).present);  // no file yet
+  std::ofstream(control) << "1\n";
+  auto p = scene.marker_pose(0, 5.0);
+  EXPECT_TRUE(p.present);
+  EXPECT_EQ(p.x, 2.0);
+  EXPECT_EQ(p.y, 3.0);
+  EXPECT_EQ(p.z, 0.15);
+  EXPECT_NEAR(p.yaw, 30 * std::numbers::pi / 180, 1e-12);
+  std::ofstream(control) << "0";
+  p = scene.marker_pose(0, 0.0);
+  EXPECT_EQ(p.x, 1.0);
+  EXPECT_EQ(p.z, 0.05);
+  std::ofstream(control) << "2";
+  EXPECT_NEAR(scene.marker_pose(0, 0.0).yaw, -std::numbers::pi / 2, 1e-12);
+  EXPECT_EQ(scene.marker_pose(0, 0.0).z, 0.0);
+  for (const char* bad : {"3", "-1", "x", "1 2", ""}) {
+    std::ofstream(control) << bad;
+    EXPECT_FALSE(scene.marker_pose(0, 0.0).present) << "'" << bad << "'";
+  }
+  fs::remove(control);
+}
+
 TEST(Scene, BadScenesNameFileLineAndKey) {
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
   const std::string cam =
@@ -150,6 +273,13 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
       {"bad_dict.yaml", "dictionary: DICT_9X9\n" + cam, "dictionary"},
       {"bad_quality.yaml", cam + "render: {jpeg_quality: 101}\n", "render.jpeg_quality"},
       {"broken.yaml", cam + "markers: [\n", "YAML"},
+      {"no_control.yaml",
+       cam + "markers:\n  - {id: 1, trajectory: {type: placements, points: [[1, 1]]}}\n",
+       "markers[0].trajectory.control"},
+      {"bad_placement.yaml",
+       cam + "markers:\n  - {id: 1, trajectory: {type: placements, control: c.txt, points: "
+             "[[1, 1, -0.1]]}}\n",
+       "markers[0].trajectory.points[0]"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.file);

@@ -21,13 +21,17 @@
 
 namespace ips::support {
 
-/// Starts argv[0] with stdout+stderr appended to `log`. Returns the pid.
-inline pid_t spawn(const std::vector<std::string>& argv, const std::filesystem::path& log) {
+/// Starts argv[0] with stdout+stderr appended to `log` and, if `stdin_fd` >= 0, that file
+/// descriptor (e.g. the read end of a pipe a test types into) as its standard input.
+/// Returns the pid.
+inline pid_t spawn(const std::vector<std::string>& argv, const std::filesystem::path& log,
+                   int stdin_fd = -1) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     ::dup2(fd, 1);
     ::dup2(fd, 2);
+    if (stdin_fd >= 0) ::dup2(stdin_fd, 0);
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);

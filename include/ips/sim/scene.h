@@ -22,11 +22,12 @@ struct MarkerPose {
   double x = 0.0, y = 0.0;  ///< centre on the floor plane, metres
   double z = 0.0;           ///< height of the marker's face above the floor, metres
   double yaw = 0.0;         ///< marker x-axis heading from world +x towards +y, radians
+  bool present = true;      ///< false: the marker is not in the scene (picked up), not drawn
 };
 
 /// How a marker moves. Static markers stay at their start pose.
 struct Trajectory {
-  enum class Kind { kStatic, kCircle, kLine, kWaypoints };
+  enum class Kind { kStatic, kCircle, kLine, kWaypoints, kPlacements };
   Kind kind = Kind::kStatic;
   double speed = 0.0;            ///< m/s along the path
   Eigen::Vector2d center{0, 0};  ///< circle centre, metres
@@ -35,6 +36,12 @@ struct Trajectory {
   std::vector<Eigen::Vector2d>
       points;                        ///< line: {from, to} (back and forth); waypoints: closed loop
   bool heading_follows_path = true;  ///< yaw = direction of travel (+ yaw offset) else fixed yaw
+  /// placements: the marker is put down by hand at one of these poses at a time, the one whose
+  /// 0-based index the `control` file holds (read at every pose query, so whoever plays the
+  /// user moves the marker by rewriting the file); anything else in it (missing file, not an
+  /// index, out of range) = the marker is picked up (not present).
+  std::vector<MarkerPose> placements;
+  std::filesystem::path control;
 };
 
 struct SceneMarker {
