@@ -102,7 +102,7 @@ struct OutputConfig {
 struct FusionConfig {
   std::string method = "mean";  ///< mean | area | gauss | median (the per-instant combination)
   double window_s = 0.050;      ///< another camera's observation at most this old is used, motion-compensated, s
-  double velocity_span_s = 0.070;  ///< a camera's own observations over this span give its velocity, s
+  double velocity_span_s = 0.200;  ///< a camera's own observations over this span give its velocity, s
   double history_s = 0.250;     ///< reorder buffer: observations older than this are dropped, s
   /// A marker without a known height seen by ONE camera (no triangulation): true = report the
   /// depth-formula position (z from the marker size, cm-level), false = leave it out.

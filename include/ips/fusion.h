@@ -72,7 +72,8 @@ struct FrameObservations {
   std::vector<WorldObservation> observations;
 };
 
-/// Collects per-frame batches from the cameras into frame sets: batches whose capture times
+/// The daemon's fusion before asynchronous fusion (ips/track_fusion.h), kept as the baseline its
+/// tests compare against. Collects per-frame batches from the cameras into frame sets: batches whose capture times
 /// lie within `window_ns` of the set's first batch. A set is complete (returned by add or
 /// poll) when every expected camera has delivered, when a batch arrives that does not fit
 /// (too late or a camera delivering twice), or when `max_wait_ns` of wall time passed since

@@ -7,7 +7,8 @@
 // is the per-instant combination (mean/area/gauss/median, fusion.h) of one estimate per camera
 // that saw it within `window_s` before T: camera c's own observation as is, every other
 // camera's latest observation at or before T moved forward to T by that camera's own velocity
-// (a least-squares line through its observations of the last `velocity_span_s`). Per-camera
+// (a least-squares line through its newest 3 frames within `velocity_span_s`; a camera without
+// two frames there is left out unless its observation is from T itself). Per-camera
 // velocities keep one camera's calibration bias out of another's motion.
 //
 // Order. Output for an object is produced only at a capture time >= the last time published
@@ -37,9 +38,9 @@ struct TrackFusionOptions {
   /// Another camera's observation is used (motion-compensated) when it is at most this much
   /// older than the output time, s. A camera at 30 fps needs >= 1/30 s plus jitter.
   double window_s = 0.050;
-  /// Span of a camera's own observations fitted for its velocity, s (>= 2 observations needed;
-  /// with one, that camera's estimate is used without motion compensation).
-  double velocity_span_s = 0.070;
+  /// A camera's velocity is the line through its newest 3 frames within this span, s. With
+  /// fewer than 2 frames in the span its estimate is used only at its own instant.
+  double velocity_span_s = 0.200;
   /// How far back the per-camera histories reach (the reorder buffer), s; observations older
   /// than this before the object's newest one are dropped and counted.
   double history_s = 0.250;

@@ -11,6 +11,11 @@ namespace {
 
 std::int64_t to_ns(double s) { return static_cast<std::int64_t>(std::llround(s * 1e9)); }
 
+// Frames of one camera fitted for its velocity, at most.
+constexpr std::size_t kVelocityFrames = 3;
+// Capture times this close count as the same instant (no motion compensation needed).
+constexpr std::int64_t kSameInstantNs = 1'000'000;
+
 // Least-squares slope of position against time over `obs` (>= 2 distinct times), m/s.
 Eigen::Vector3d fitted_velocity(const std::vector<const WorldObservation*>& obs) {
   double t_mean = 0.0;
@@ -84,24 +89,45 @@ std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std
     if (last == q.begin()) continue;
     const std::int64_t t_cam = std::prev(last)->t_mono_ns;
     if (t - t_cam > window) continue;
-    // Velocity from this camera's own observations within the span (one per frame: the first
-    // sighting of each capture time, so an impostor does not weigh twice).
+    // Velocity from this camera's newest kVelocityFrames frames within the span (one
+    // observation per frame: the first sighting of each capture time, so an impostor does not
+    // weigh twice). Few frames keep the lag on curves small; the span lets a starved camera
+    // (frames skipped) still have a velocity.
     std::vector<const WorldObservation*> fit;
-    for (auto it = last; it != q.begin();) {
+    for (auto it = last; it != q.begin() && fit.size() < kVelocityFrames;) {
       --it;
       if (t_cam - it->t_mono_ns > span) break;
       if (!fit.empty() && fit.back()->t_mono_ns == it->t_mono_ns) continue;
       fit.push_back(&*it);
     }
     Eigen::Vector3d v = Eigen::Vector3d::Zero();
-    if (!std::prev(last)->height_known) {
-      v = path_velocity(track);  // a depth-formula z is too noisy to fit; use the fused path
-    } else if (fit.size() >= 2) {
-      v = fitted_velocity(fit);
+    if (fit.size() >= 2) {
+      if (!fit.front()->height_known) {
+        // Rays without a height: their depth-formula points are too noisy to fit, but where
+        // the rays meet the plane of the marker's last fused z (it drives on a floor) they
+        // move like the marker does (before the first fused z: the depth formula's).
+        const double z = track.path.empty() ? fit.front()->p_world.z() : track.path.back().second.z();
+        std::vector<WorldObservation> on_plane;
+        on_plane.reserve(fit.size());
+        for (const auto* o : fit) {
+          WorldObservation w = *o;
+          if (o->has_ray && std::fabs(o->ray_direction.z()) > 1e-6)
+            w.p_world = o->ray_origin + (z - o->ray_origin.z()) / o->ray_direction.z() * o->ray_direction;
+          on_plane.push_back(w);
+        }
+        std::vector<const WorldObservation*> ptrs;
+        for (const auto& w : on_plane) ptrs.push_back(&w);
+        v = fitted_velocity(ptrs);
+      } else {
+        v = fitted_velocity(fit);
+      }
       v_sum += v;
       ++v_count;
     }
     const double dt = 1e-9 * static_cast<double>(t - t_cam);
+    // An estimate that cannot be motion-compensated (one frame of this camera) is used only
+    // at its own instant: another frame's velocity (the fused path's) proved too rough to move it.
+    if (fit.size() < 2 && t - t_cam > kSameInstantNs) continue;
     for (auto it = last; it != q.begin();) {
       --it;
       if (it->t_mono_ns != t_cam) break;

@@ -24,6 +24,11 @@ namespace fs = std::filesystem;
 
 constexpr double kFps = 20.0;
 
+struct Record {
+  MarkerRecord m;
+  std::int64_t t_mono_ns;  ///< the record's capture time: header + dt_us
+};
+
 class IpsdFusionTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -61,19 +66,16 @@ class IpsdFusionTest : public ::testing::Test {
     return "  - {name: " + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(kFps) +
            ", phase: " + std::to_string(phase) + extra + "}\n";
   }
-  static std::string config(std::uint16_t port, const std::string& markers, const std::string& slow = "") {
+  // The output port is filled in by run(), which owns the receiver.
+  static std::string config(const std::string& markers, const std::string& slow = "") {
     std::string c = "cameras:\n" + camera("red", 0.0) + camera("white", 0.011) + camera("black", 0.023, slow);
     c += markers;
     c += "model_file: model.json\n";
-    c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(port) + ", format: binary}\n";
+    c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: @PORT@, format: binary}\n";
     c += "status: {interval: 1, socket: " + (*dir_ / "status.sock").string() + "}\n";
     return c;
   }
 
-  struct Record {
-    MarkerRecord m;
-    std::int64_t t_mono_ns;  ///< the record's capture time: header + dt_us
-  };
   struct Run {
     std::vector<Record> records;
     nlohmann::json status;
@@ -85,7 +87,9 @@ class IpsdFusionTest : public ::testing::Test {
   static Run run(const std::string& yaml, double seconds) {
     test::UdpReceiver rx;
     const fs::path cfg = *dir_ / "ipsd.yaml", log = *dir_ / "ipsd.log";
-    std::ofstream(cfg) << yaml;
+    std::string text = yaml;
+    text.replace(text.find("@PORT@"), 6, std::to_string(rx.port));
+    std::ofstream(cfg) << text;
     const pid_t pid = test::spawn({test::bin("ipsd"), "--config", cfg.string()}, log);
     const test::ChildGuard guard(pid);
     Run r;
@@ -115,7 +119,7 @@ double p95(std::vector<double> v) {
 }
 
 // Per marker, the capture times of the stream never decrease; returns the number of records.
-std::size_t expect_per_marker_order(const std::vector<IpsdFusionTest::Record>& records) {
+std::size_t expect_per_marker_order(const std::vector<Record>& records) {
   std::map<std::uint32_t, std::int64_t> last;
   std::size_t backwards = 0;
   for (const auto& r : records) {
@@ -128,7 +132,7 @@ std::size_t expect_per_marker_order(const std::vector<IpsdFusionTest::Record>& r
 }
 
 TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
-  const Run r = run(config(test::free_udp_port(), "markers:\n  height: 0.0\n  ids:\n    1: {height: 0.15}\n"
+  const Run r = run(config("markers:\n  height: 0.0\n  ids:\n    1: {height: 0.15}\n"
                                                   "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n"),
                     6.0);
   ASSERT_FALSE(r.records.empty()) << r.log;
@@ -159,7 +163,7 @@ TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
 
 TEST_F(IpsdFusionTest, ALateCameraNeverMakesAMarkerGoBackInTime) {
   // black's frames arrive 150 ms after capture (3 frame periods), the others' after 50 ms.
-  const Run r = run(config(test::free_udp_port(), "markers:\n  height: 0.1\n  ids:\n    1: {height: 0.15}\n"
+  const Run r = run(config("markers:\n  height: 0.1\n  ids:\n    1: {height: 0.15}\n"
                                                   "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n",
                            ", transport_delay: 0.15"),
                     5.0);
@@ -169,7 +173,7 @@ TEST_F(IpsdFusionTest, ALateCameraNeverMakesAMarkerGoBackInTime) {
 }
 
 TEST_F(IpsdFusionTest, TwoCamerasTriangulateMarkersWithoutHeights) {
-  const Run r = run(config(test::free_udp_port(), ""), 6.0);  // no markers section: no heights
+  const Run r = run(config(""), 6.0);  // no markers section: no heights
   ASSERT_FALSE(r.records.empty()) << r.log;
   expect_per_marker_order(r.records);
   const auto scene = sim::Scene::load(*dir_ / "scene.yaml");
@@ -186,7 +190,9 @@ TEST_F(IpsdFusionTest, TwoCamerasTriangulateMarkersWithoutHeights) {
   std::printf("[ ipsd    ] triangulated without heights: 3D error p95 %.2f mm over %zu records, markers seen %zu\n",
               1e3 * p95(errors), errors.size(), per_marker.size());
   EXPECT_LE(p95(errors), 0.020);
-  if (test::kTimeScale == 1.0) EXPECT_GE(per_marker.size(), 3u);
+  if (test::kTimeScale == 1.0) {
+    EXPECT_GE(per_marker.size(), 3u);
+  }
 }
 
 }  // namespace

@@ -63,6 +63,21 @@ TEST(TrackFusion, AnotherCamerasObservationIsMovedToTheFrameTimeByItsOwnVelocity
   // Without compensation the mean would be (0.033 + 0.044) / 2: 5.5 mm off.
 }
 
+TEST(TrackFusion, AnotherCameraWithOneFrameIsUsedOnlyAtItsOwnInstant) {
+  TrackFusion f;
+  std::vector<FusedMarker> out;
+  f.add(frame(0, 0, {obs(1, 0, 0, {0, 0, 0})}), mean(), &out);
+  out.clear();
+  f.add(frame(1, 0, {obs(1, 1, 0, {0.2, 0, 0})}), mean(), &out);  // same instant: fused
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].camera_mask, 0b11u);
+  EXPECT_DOUBLE_EQ(out[0].p_world.x(), 0.1);
+  out.clear();
+  f.add(frame(2, 10 * kMs, {obs(1, 2, 10 * kMs, {0.4, 0, 0})}), mean(), &out);  // 0 and 1 cannot be moved
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].camera_mask, 0b100u);
+}
+
 TEST(TrackFusion, ACameraOlderThanTheWindowIsLeftOut) {
   TrackFusionOptions o;
   o.window_s = 0.030;
@@ -82,14 +97,15 @@ TEST(TrackFusion, ALateFrameIsMergedButNotPublishedAndTooOldIsDropped) {
   f.add(frame(0, 100 * kMs, {obs(3, 0, 100 * kMs, {0, 0, 0})}), mean(), &out);
   ASSERT_EQ(out.size(), 1u);
   out.clear();
+  f.add(frame(1, 80 * kMs, {obs(3, 1, 80 * kMs, {0.1, 0, 0})}), mean(), &out);  // late
   f.add(frame(1, 90 * kMs, {obs(3, 1, 90 * kMs, {0.1, 0, 0})}), mean(), &out);  // late
   EXPECT_TRUE(out.empty());
-  EXPECT_EQ(f.counters().late, 1u);
+  EXPECT_EQ(f.counters().late, 2u);
   // The late observation is used by the next output (within the 50 ms window of 110 ms).
   f.add(frame(0, 110 * kMs, {obs(3, 0, 110 * kMs, {0, 0, 0})}), mean(), &out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].camera_mask, 0b11u);
-  EXPECT_NEAR(out[0].p_world.x(), 0.05, 1e-12);  // camera 1 alone: one frame, no velocity
+  EXPECT_NEAR(out[0].p_world.x(), 0.05, 1e-12);  // camera 1 still at 0.1: velocity 0
   out.clear();
   f.add(frame(1, 110 * kMs - 260 * kMs, {obs(3, 1, -150 * kMs, {0, 0, 0})}), mean(), &out);
   EXPECT_TRUE(out.empty());
@@ -144,7 +160,7 @@ TEST(TrackFusion, TwoCamerasRaysAreTriangulatedWithoutAHeight) {
   std::vector<FusedMarker> out;
   f.add(frame(0, 0, {ray_obs(4, 0, 0, c0, target, 0.05)}), mean(), &out);
   EXPECT_TRUE(out.empty());  // one camera, no height, single_camera_depth off
-  f.add(frame(1, 5 * kMs, {ray_obs(4, 1, 5 * kMs, c1, target, -0.04)}), mean(), &out);
+  f.add(frame(1, 0, {ray_obs(4, 1, 0, c1, target, -0.04)}), mean(), &out);  // the same instant
   ASSERT_EQ(out.size(), 1u);
   EXPECT_LT((out[0].p_world - target).norm(), 1e-9);  // the depth errors do not matter
   EXPECT_EQ(out[0].camera_mask, 0b11u);
@@ -156,6 +172,8 @@ TEST(TrackFusion, TwoCamerasRaysAreTriangulatedWithoutAHeight) {
   const Eigen::Vector3d across = (c1 - c0).cross(target - c0).normalized();
   const Eigen::Vector3d off = target + 0.01 * across;
   f.add(frame(0, 33 * kMs, {ray_obs(4, 0, 33 * kMs, c0, off, 0.0)}), mean(), &out);
+  out.clear();
+  f.add(frame(1, 33 * kMs, {ray_obs(4, 1, 33 * kMs, c1, target, 0.0)}), mean(), &out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_GT(out[0].spread, 0.003);
   EXPECT_LT(out[0].spread, 0.01);
