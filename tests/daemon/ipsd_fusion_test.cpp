@@ -164,13 +164,22 @@ TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
 }
 
 TEST_F(IpsdFusionTest, ALateCameraNeverMakesAMarkerGoBackInTime) {
-  // black's frames arrive 250 ms after capture, the others' after 100 ms (one frame period).
+  // black's frames arrive 250 ms after capture, the others' after 100 ms (one frame period);
+  // black's stamps are also moved by a timestamp_offset of 4 ms.
   const Run r = run(config("markers:\n  height: 0.1\n  ids:\n    1: {height: 0.15}\n"
                                                   "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n",
-                           ", transport_delay: 0.25"),
+                           ", transport_delay: 0.25, timestamp_offset: 0.004"),
                     5.0);
   ASSERT_FALSE(r.records.empty()) << r.log;
   expect_per_marker_order(r.records);
+  // Every record's time is a frame instant: red's (phase 0), white's (11 ms), black's (23 + 4 ms).
+  std::map<std::int64_t, int> phases;
+  for (const auto& rec : r.records) {
+    const std::int64_t in_period = (rec.t_mono_ns - r.epoch) % static_cast<std::int64_t>(1e9 / kFps);
+    ++phases[in_period];
+    EXPECT_TRUE(in_period == 0 || in_period == 11'000'000 || in_period == 27'000'000) << in_period;
+  }
+  EXPECT_TRUE(phases.count(27'000'000)) << "no record from black's frames";
   EXPECT_GT(r.status["fusion_late"].get<std::uint64_t>(), 0u) << r.status.dump();
 }
 
