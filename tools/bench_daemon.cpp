@@ -2,7 +2,8 @@
 // 30 fps with unsynchronised capture phases 0 / 11 / 23 ms, measured from outside:
 //   - processing latency (frame delivered by its source -> sendto) and capture latency
 //     (capture -> sendto) from the daemon's own status, sampled every 1 s status interval:
-//     p50 = median of the intervals' p50, p99 = the largest interval p99 (an upper bound);
+//     p50 = median of the intervals' p50, p99 = the largest interval p99 (an upper bound; the
+//     median interval p99 beside it);
 //     the synthetic cameras render ahead on their own niced threads ("sim:<name>") and deliver
 //     each frame one frame period after its capture, so the renderer's cost is not measured;
 //   - capture -> sendto from every datagram (publish time - header capture time, both
@@ -210,10 +211,10 @@ int main(int argc, char** argv) {
   std::printf("\nbench_daemon: %.1f s measured, %zu datagrams (%.1f/s), %.2f markers per datagram\n", wall, datagrams,
               static_cast<double>(datagrams) / wall, datagrams ? static_cast<double>(markers) / static_cast<double>(datagrams) : 0.0);
   std::printf("daemon, %zu status intervals of 1 s:\n", proc50.size());
-  std::printf("processing latency (delivered -> sendto)  p50 %6.1f ms   p99 %6.1f ms (largest interval p99)\n",
-              percentile(proc50, 50), percentile(proc99, 100));
-  std::printf("capture latency    (capture -> sendto)    p50 %6.1f ms   p99 %6.1f ms (largest interval p99)\n",
-              percentile(cap50, 50), percentile(cap99, 100));
+  std::printf("processing latency (delivered -> sendto)  p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
+              percentile(proc50, 50), percentile(proc99, 100), percentile(proc99, 50));
+  std::printf("capture latency    (capture -> sendto)    p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
+              percentile(cap50, 50), percentile(cap99, 100), percentile(cap99, 50));
   std::printf("from the datagrams:\n");
   std::printf("latency capture -> sendto   p50 %7.1f ms   p99 %7.1f ms   max %7.1f ms\n", percentile(to_send, 50),
               percentile(to_send, 99), percentile(to_send, 100));
