@@ -5,7 +5,9 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
+#include <atomic>
 #include <map>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -167,13 +169,23 @@ TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
   }
 }
 
-TEST_F(IpsdFusionTest, ALateCameraNeverMakesAMarkerGoBackInTime) {
+TEST_F(IpsdFusionTest, ALateCameraOnAStarvedMachineNeverMakesAMarkerGoBackInTime) {
   // black's frames arrive 250 ms after capture, the others' after 100 ms (one frame period);
-  // black's stamps are also moved by a timestamp_offset of 4 ms.
+  // black's stamps are also moved by a timestamp_offset of 4 ms. Meanwhile two threads of
+  // this test spin on both cores, so the daemon's threads are starved and delayed at random.
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> hogs;
+  for (int i = 0; i < 2; ++i)
+    hogs.emplace_back([&stop] {
+      volatile std::uint64_t x = 0;
+      while (!stop.load(std::memory_order_relaxed)) x = x + 1;
+    });
   const Run r = run(config("markers:\n  height: 0.1\n  ids:\n    1: {height: 0.15}\n"
                                                   "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n",
                            ", transport_delay: 0.25, timestamp_offset: 0.004"),
                     5.0);
+  stop = true;
+  for (auto& h : hogs) h.join();
   ASSERT_FALSE(r.records.empty()) << r.log;
   expect_per_marker_order(r.records);
   // Every record's time is a frame instant: red's (phase 0), white's (11 ms), black's (23 + 4 ms).
@@ -184,6 +196,10 @@ TEST_F(IpsdFusionTest, ALateCameraNeverMakesAMarkerGoBackInTime) {
     EXPECT_TRUE(in_period == 0 || in_period == 11'000'000 || in_period == 27'000'000) << in_period;
   }
   EXPECT_TRUE(phases.count(27'000'000)) << "no record from black's frames";
+  std::printf("[ ipsd    ] late camera, both cores spun by the test: %zu records, none back in time; "
+              "%llu observations merged late, %llu too old\n",
+              r.records.size(), static_cast<unsigned long long>(r.status["fusion_late"].get<std::uint64_t>()),
+              static_cast<unsigned long long>(r.status["fusion_too_old"].get<std::uint64_t>()));
   EXPECT_GT(r.status["fusion_late"].get<std::uint64_t>(), 0u) << r.status.dump();
 }
 
@@ -215,7 +231,7 @@ TEST_F(IpsdFusionTest, FixedRateOutputPredictsEveryMarkerToTheTick) {
               "%.1f mm at 0.3 m/s or static (%zu)\n",
               1e3 * p95(fast), fast.size(), 1e3 * p95(slow), slow.size());
   if (!fast.empty()) {
-    EXPECT_LE(p95(fast), 0.05);  // linear prediction ~0.1 s ahead on a curve: cm-level by nature
+    EXPECT_LE(p95(fast), 0.08);  // linear prediction ~0.1 s ahead on a curve: cm-level by nature (33-43 mm seen)
   }
   if (!slow.empty()) {
     EXPECT_LE(p95(slow), 0.01);
