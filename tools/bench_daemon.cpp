@@ -1,12 +1,17 @@
 // bench_daemon: the real ipsd on 3 synthetic cameras (the published layout, four robots) at
-// 30 fps, measured from outside:
-//   - end-to-end latency capture -> sendto, from every datagram (publish time - capture time,
-//     both CLOCK_REALTIME; the publish time is stamped just before sendto), p50/p99/max;
+// 30 fps with unsynchronised capture phases 0 / 11 / 23 ms, measured from outside:
+//   - processing latency (frame delivered by its source -> sendto) and capture latency
+//     (capture -> sendto) from the daemon's own status, sampled every 1 s status interval:
+//     p50 = median of the intervals' p50, p99 = the largest interval p99 (an upper bound; the
+//     median interval p99 beside it);
+//     the synthetic cameras render ahead on their own niced threads ("sim:<name>") and deliver
+//     each frame one frame period after its capture, so the renderer's cost is not measured;
+//   - capture -> sendto from every datagram (publish time - header capture time, both
+//     CLOCK_REALTIME; the publish time is stamped just before sendto), p50/p99/max;
 //   - capture -> arrival at a local client, for reference;
-//   - CPU per thread (camera threads "cam:<name>", "fusion") from /proc/<pid>/task/*/stat,
-//     as a percentage of one core; a synthetic camera's thread also renders and JPEG-encodes
-//     its frames, so "detect ms" (detect + locate + map per frame, from the daemon's status)
-//     is given apart;
+//   - CPU per thread (camera threads "cam:<name>" = JPEG decode + detect + locate + map,
+//     "fusion", the simulator's "sim:<name>") from /proc/<pid>/task/*/stat, as a percentage of
+//     one core; the daemon's total without the simulator; the machine's idle CPU (left over);
 //   - frames per second, detect ms per frame, markers per frame and drops per camera.
 // Usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]
 #include <arpa/inet.h>
@@ -82,6 +87,15 @@ double status_mib(pid_t pid, const std::string& field) {
   return NAN;
 }
 
+// Idle + iowait ticks of the whole machine (/proc/stat "cpu" line), all cores.
+long machine_idle_ticks() {
+  std::ifstream in("/proc/stat");
+  std::string cpu;
+  long user = 0, nice = 0, system = 0, idle = 0, iowait = 0;
+  in >> cpu >> user >> nice >> system >> idle >> iowait;
+  return idle + iowait;
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
@@ -126,14 +140,14 @@ int main(int argc, char** argv) {
   const std::string socket_path = (dir / "status.sock").string();
   std::ofstream(dir / "ipsd.yaml")
       << "cameras:\n"
-      << "  - {name: red, source: synthetic, scene: " << scene.string() << ", fps: " << fps << "}\n"
-      << "  - {name: white, source: synthetic, scene: " << scene.string() << ", fps: " << fps << "}\n"
-      << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps << "}\n"
+      << "  - {name: red, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.000}\n"
+      << "  - {name: white, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.011}\n"
+      << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.023}\n"
       << "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n    3: {height: 0.0, edge_length: 0.15}\n"
       << "    4: {height: 0.05}\n"
       << "model_file: model.json\n"
       << "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " << receiver.port << ", format: binary}\n"
-      << "status: {interval: 0, socket: " << socket_path << "}\n";
+      << "status: {interval: 1, socket: " << socket_path << "}\n";
   const fs::path daemon_log = dir / "ipsd.log";
   const pid_t pid = spawn({ipsd.string(), "--config", (dir / "ipsd.yaml").string()}, daemon_log);
 
@@ -172,10 +186,21 @@ int main(int argc, char** argv) {
   const auto cpu0 = thread_cpu(pid);
   const double rss0 = status_mib(pid, "VmRSS");
   const std::int64_t t0 = ips::monotonic_ns();
+  const auto idle0 = machine_idle_ticks();
   std::vector<double> to_send, to_arrive;
-  std::size_t markers = 0;
-  const std::size_t datagrams = receive_for(seconds, &to_send, &to_arrive, &markers);
+  std::vector<double> proc50, proc99, cap50, cap99;
+  std::size_t markers = 0, datagrams = 0;
+  for (double left = seconds; left > 0; left -= 1.0) {  // one daemon status interval per step
+    datagrams += receive_for(std::min(1.0, left), &to_send, &to_arrive, &markers);
+    const auto s = nlohmann::json::parse(read_unix_socket(socket_path), nullptr, false);
+    if (!s.is_object() || !s.contains("processing_latency_ms") || s["processing_latency_ms"]["p50"].is_null()) continue;
+    proc50.push_back(s["processing_latency_ms"]["p50"]);
+    proc99.push_back(s["processing_latency_ms"]["p99"]);
+    cap50.push_back(s["capture_latency_ms"]["p50"]);
+    cap99.push_back(s["capture_latency_ms"]["p99"]);
+  }
   const double wall = 1e-9 * static_cast<double>(ips::monotonic_ns() - t0);
+  const auto idle1 = machine_idle_ticks();
   const auto cpu1 = thread_cpu(pid);
   const double rss1 = status_mib(pid, "VmRSS"), rss_peak = status_mib(pid, "VmHWM");
   const auto status = nlohmann::json::parse(read_unix_socket(socket_path), nullptr, false);
@@ -185,15 +210,22 @@ int main(int argc, char** argv) {
 
   std::printf("\nbench_daemon: %.1f s measured, %zu datagrams (%.1f/s), %.2f markers per datagram\n", wall, datagrams,
               static_cast<double>(datagrams) / wall, datagrams ? static_cast<double>(markers) / static_cast<double>(datagrams) : 0.0);
+  std::printf("daemon, %zu status intervals of 1 s:\n", proc50.size());
+  std::printf("processing latency (delivered -> sendto)  p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
+              percentile(proc50, 50), percentile(proc99, 100), percentile(proc99, 50));
+  std::printf("capture latency    (capture -> sendto)    p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
+              percentile(cap50, 50), percentile(cap99, 100), percentile(cap99, 50));
+  std::printf("from the datagrams:\n");
   std::printf("latency capture -> sendto   p50 %7.1f ms   p99 %7.1f ms   max %7.1f ms\n", percentile(to_send, 50),
               percentile(to_send, 99), percentile(to_send, 100));
   std::printf("latency capture -> client   p50 %7.1f ms   p99 %7.1f ms   max %7.1f ms\n", percentile(to_arrive, 50),
               percentile(to_arrive, 99), percentile(to_arrive, 100));
   std::printf("%-12s %8s %8s %10s %8s %8s\n", "thread", "CPU %", "fps", "detect ms", "markers", "drops");
-  long total = 0;
+  long total = 0, simulator = 0;
   for (const auto& [name, t1] : cpu1) {
     const long used = t1 - (cpu0.count(name) ? cpu0.at(name) : 0);
     total += used;
+    if (name.rfind("sim:", 0) == 0) simulator += used;
     const double pct = 100.0 * static_cast<double>(used) / static_cast<double>(ticks) / wall;
     if (name.rfind("cam:", 0) == 0 && status.is_object()) {
       for (std::size_t i = 0; i < status["cameras"].size(); ++i) {
@@ -217,8 +249,13 @@ int main(int argc, char** argv) {
   // A daemon left running for months must not grow: run with a long --seconds to soak.
   std::printf("memory: resident %.1f MiB at the start of the measurement, %.1f MiB at its end (%+.2f MiB), peak %.1f MiB\n",
               rss0, rss1, rss1 - rss0, rss_peak);
-  std::printf("%-12s %8.1f   (%u hardware threads)\n", "ipsd total", 100.0 * static_cast<double>(total) / static_cast<double>(ticks) / wall,
+  const double to_pct = 100.0 / static_cast<double>(ticks) / wall;
+  std::printf("%-12s %8.1f   (%u hardware threads)\n", "ipsd total", static_cast<double>(total) * to_pct,
               std::thread::hardware_concurrency());
+  std::printf("%-12s %8.1f   (the daemon without its simulated cameras' renderers)\n", "daemon",
+              static_cast<double>(total - simulator) * to_pct);
+  std::printf("%-12s %8.1f   (machine idle over the measurement: CPU left over, all processes)\n", "idle",
+              static_cast<double>(idle1 - idle0) * to_pct);
   fs::remove_all(dir);
   return 0;
 }

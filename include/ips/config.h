@@ -51,11 +51,19 @@ struct CameraConfig {
   // synthetic
   std::filesystem::path scene;  ///< synthetic: the simulator's scene file; required for synthetic
   std::string scene_camera;     ///< synthetic: camera of the scene to render; default: `name`
+  /// synthetic: frame k is delivered this long after its capture time, s (like MJPEG over USB);
+  /// NaN = one frame period.
+  double transport_delay_s = std::nan("");
+  /// synthetic: frame k is captured at scene time phase + k / fps, s (unsynchronised cameras)
+  double phase_s = 0.0;
   // every source
   double fps = 30.0;            ///< frames per second requested (v4l2) or paced (file, synthetic)
   std::filesystem::path intrinsics;  ///< camera intrinsics file (CameraModel::load); required except
                                      ///< for synthetic cameras (default: the scene camera's)
   bool required = false;        ///< true: failing to open at start is fatal (exit 1)
+  /// Added to the source's timestamps so that they mean mid exposure, s (may be negative;
+  /// README "Time" says how to measure it).
+  double timestamp_offset_s = 0.0;
 
   bool operator==(const CameraConfig&) const = default;
 };
@@ -92,9 +100,15 @@ struct OutputConfig {
 };
 
 struct FusionConfig {
-  std::string method = "mean";  ///< mean | area | gauss | median
-  double window_s = 0.020;      ///< frames whose capture times lie within this of each other are fused, s
-  double max_wait_s = 0.050;    ///< longest an incomplete frame set waits for a late camera, s
+  std::string method = "mean";  ///< mean | area | gauss | median (the per-instant combination)
+  double window_s = 0.050;      ///< another camera's observation at most this old is used, motion-compensated, s
+  double velocity_span_s = 0.200;  ///< a camera's own observations over this span give its velocity, s
+  double history_s = 0.250;     ///< reorder buffer: observations older than this are dropped, s
+  /// A marker without a known height seen by ONE camera (no triangulation): true = report the
+  /// depth-formula position (z from the marker size, cm-level), false = leave it out.
+  bool single_camera_depth = false;
+  double output_rate_hz = 0.0;  ///< 0 = one update per camera frame; > 0 = fixed rate, state predicted
+  double max_wait_s = 0.050;    ///< obsolete (frame sets are gone); accepted so old files still load
   bool kalman = false;          ///< constant-velocity Kalman filter per marker (adds velocity)
   KalmanOptions kalman_options;
 };

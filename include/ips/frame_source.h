@@ -15,6 +15,9 @@ struct Frame {
   std::uint64_t sequence = 0;  ///< source's frame counter (V4L2: driver sequence; gaps = driver drops)
   std::int64_t t_mono_ns = 0;  ///< capture time, CLOCK_MONOTONIC nanoseconds
   std::int64_t t_real_ns = 0;  ///< the same instant on CLOCK_REALTIME
+  /// When the source had the frame ready for the daemon, CLOCK_MONOTONIC (V4L2: dequeue; a
+  /// synthetic camera: capture time + transport delay); 0 = the reader stamps it on return.
+  std::int64_t t_delivered_ns = 0;
   cv::Mat gray;                ///< CV_8UC1; detection needs nothing else
 };
 

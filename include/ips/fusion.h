@@ -25,8 +25,12 @@ struct FusedMarker {
   double spread = 0.0;            ///< max distance of a contributing estimate from p_world, m
   std::int64_t t_mono_ns = 0;     ///< weighted mean capture time of the contributions
   std::int64_t t_real_ns = 0;
-  bool has_velocity = false;      ///< set by the Kalman tracker
+  bool has_velocity = false;      ///< velocity is an estimate (Kalman, or the cameras' own motion)
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s
+  /// Position covariance, m^2: the Kalman filter's when it runs; otherwise the scatter of the
+  /// cameras' estimates plus one measurement variance, both divided by the number of cameras.
+  /// Not on the v1 wire; kept for outputs that carry it (ROS, MAVLink).
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
 };
 
 /// Relative weight of each observation (all of one marker id); the registry's methods.
@@ -64,10 +68,12 @@ struct FrameObservations {
   int camera_index = -1;
   std::int64_t t_mono_ns = 0;  ///< capture time of the frame
   std::int64_t t_real_ns = 0;
+  std::int64_t t_delivered_ns = 0;  ///< when the source delivered the frame, CLOCK_MONOTONIC
   std::vector<WorldObservation> observations;
 };
 
-/// Collects per-frame batches from the cameras into frame sets: batches whose capture times
+/// The daemon's fusion before asynchronous fusion (ips/track_fusion.h), kept as the baseline its
+/// tests compare against. Collects per-frame batches from the cameras into frame sets: batches whose capture times
 /// lie within `window_ns` of the set's first batch. A set is complete (returned by add or
 /// poll) when every expected camera has delivered, when a batch arrives that does not fit
 /// (too late or a camera delivering twice), or when `max_wait_ns` of wall time passed since

@@ -58,6 +58,14 @@ class Mapper {
   /// True for mappers that need the marker height (the `plane` mapper).
   virtual bool needs_height() const { return false; }
 
+  /// The world ray through camera point `cam` (its direction; the depth is not used):
+  /// origin = the camera centre, direction unit length. False for mappers without a camera
+  /// pose; rays of two cameras meet at the marker (triangulation, no height needed).
+  virtual bool world_ray(const Eigen::Vector3d& /*cam*/, Eigen::Vector3d& /*origin*/,
+                         Eigen::Vector3d& /*direction*/) const {
+    return false;
+  }
+
   /// The fewest training pairs fit() accepts for this method (checked before fitting,
   /// so a data file with too few rows for a camera is refused with a clear message).
   virtual std::size_t min_points() const = 0;

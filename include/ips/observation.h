@@ -45,6 +45,12 @@ struct WorldObservation {
   double area_px = 0.0;        ///< pixel area, for fusion weights
   std::int64_t t_mono_ns = 0;  ///< capture time, CLOCK_MONOTONIC
   std::int64_t t_real_ns = 0;  ///< capture time, CLOCK_REALTIME
+  /// False when the marker's height is unknown: p_world is then the depth-formula point on the
+  /// camera ray (cm-level in z), and the ray below lets fusion triangulate with other cameras.
+  bool height_known = true;
+  bool has_ray = false;
+  Eigen::Vector3d ray_origin = Eigen::Vector3d::Zero();     ///< camera centre, world, metres
+  Eigen::Vector3d ray_direction = Eigen::Vector3d::Zero();  ///< unit vector towards the marker
 };
 
 }  // namespace ips

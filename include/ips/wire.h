@@ -23,7 +23,8 @@
  *    17    1 u8    parts: datagrams the update was split into (>= 1)
  *    18    2 u16   reserved, 0
  *    20    4 u32   update: fused-update counter (the same for every part and every output)
- *    24    8 i64   capture_realtime_ns: capture time of the newest frame in the update, CLOCK_REALTIME
+ *    24    8 i64   capture_realtime_ns: capture time of the camera frame that produced the update
+ *                  (with a fixed output rate: the time the states were predicted to), CLOCK_REALTIME
  *    32    8 i64   capture_monotonic_ns: the same instant on the daemon host's CLOCK_MONOTONIC
  *    40    8 i64   publish_realtime_ns: when the daemon encoded the datagram, CLOCK_REALTIME
  *
@@ -39,8 +40,9 @@
  *                  (larger = closer / better resolved; 0 = none)
  *    28    4 f32   spread, metres: largest distance of a contributing camera's estimate from the
  *                  fused position (0 for a single camera); a disagreement figure
- *    32    4 i32   dt_us: this marker's capture time minus the header's capture time, microseconds
- *                  (<= 0; the weighted mean of the contributing frames' times)
+ *    32    4 i32   dt_us: this marker's time minus the header's capture time, microseconds (<= 0;
+ *                  0 from ipsd's asynchronous fusion: every record is the state at the header's
+ *                  time). Per marker id, header time + dt_us never decreases along the stream.
  *   with IPS_WIRE_FLAG_VELOCITY:
  *    36    4 f32   vx, m/s (constant-velocity Kalman filter)
  *    40    4 f32   vy, m/s

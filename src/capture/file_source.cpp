@@ -121,6 +121,7 @@ FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds t
   out.sequence = sequence_++;
   out.t_mono_ns = monotonic_ns();
   out.t_real_ns = out.t_mono_ns + realtime_minus_monotonic_ns();
+  out.t_delivered_ns = out.t_mono_ns;
   return ReadStatus::kFrame;
 }
 

@@ -370,6 +370,7 @@ FrameSource::ReadStatus V4L2Source::read(Frame& out, std::chrono::milliseconds t
   out.sequence = buf.sequence;
   out.t_mono_ns = t_mono;
   out.t_real_ns = t_mono + realtime_offset_ns(now_mono);
+  out.t_delivered_ns = now_mono;  // dequeued: decoding from here on is the daemon's cost
   ++stats_.frames;
   return ReadStatus::kFrame;
 }

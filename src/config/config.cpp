@@ -207,6 +207,14 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
   r.get_number("fps", c.fps, 0.0, true);
   r.get_path("intrinsics", c.intrinsics, base, c.source != SourceKind::kSynthetic, checks.intrinsics_exist);
   r.get("required", c.required);
+  r.get("timestamp_offset", c.timestamp_offset_s);
+  if (r.has("timestamp_offset") && !(std::fabs(c.timestamp_offset_s) <= 1.0))
+    r.fail(n["timestamp_offset"], r.key("timestamp_offset"), "must be within [-1, 1] seconds");
+  r.get_number("phase", c.phase_s, 0.0, false);
+  if (c.phase_s >= 1.0) r.fail(n["phase"], r.key("phase"), "must be < 1 second");
+  if (r.has("transport_delay")) r.get_number("transport_delay", c.transport_delay_s, 0.0, false);
+  if (r.has("transport_delay") && c.transport_delay_s > 1.0)
+    r.fail(n["transport_delay"], r.key("transport_delay"), "must be <= 1 second");
   r.finish();
   return c;
 }
@@ -371,6 +379,14 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
       f.fail(f.raw()["method"], "fusion.method", "unknown method '" + c.fusion.method + "' (" + known + ")");
     }
     f.get_number("window", c.fusion.window_s, 0.0, false);
+    f.get_number("velocity_span", c.fusion.velocity_span_s, 0.0, false);
+    f.get_number("history", c.fusion.history_s, 0.0, true);
+    if (c.fusion.history_s < c.fusion.window_s)
+      f.fail(f.has("history") ? f.raw()["history"] : f.raw(), "fusion.history", "must be >= fusion.window");
+    f.get("single_camera_depth", c.fusion.single_camera_depth);
+    f.get_number("output_rate", c.fusion.output_rate_hz, 0.0, false);
+    if (c.fusion.output_rate_hz > 1000)
+      f.fail(f.raw()["output_rate"], "fusion.output_rate", "must be <= 1000 Hz (0 = one update per camera frame)");
     f.get_number("max_wait", c.fusion.max_wait_s, 0.0, true);
     if (f.has("kalman")) {
       MapReader k(f.node("kalman"), "fusion.kalman", file);

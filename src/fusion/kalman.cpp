@@ -42,9 +42,11 @@ void MarkerTracker::update(FusedMarker& m) {
     }
     if (dt > 0.0) t.t_ns = m.t_mono_ns;
   }
+  m.covariance.setZero();  // independent axes
   for (int k = 0; k < 3; ++k) {
     m.p_world[k] = t.axis[k].x[0];
     m.velocity[k] = t.axis[k].x[1];
+    m.covariance(k, k) = t.axis[k].P(0, 0);
   }
   m.has_velocity = true;
 }

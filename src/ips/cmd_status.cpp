@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/fmt/fmt.h>
 
 #include "command.h"
 #include "ips/error.h"
@@ -55,6 +56,14 @@ int run_status(const StatusOptions& o) {
               j.value("version", "?").c_str(), j.value("pid", 0L), j.value("config", "?").c_str(),
               j.value("fusion_method", "?").c_str(), j.value("updates_per_s", 0.0), j.value("latency_ms", 0.0),
               static_cast<unsigned long long>(j.value("updates", 0ULL)));
+  // Percentiles over the daemon's last status interval (null = no samples, or an older daemon).
+  auto ms = [&j](const char* key, const char* p) {
+    const auto& v = j.value(key, nlohmann::json::object());
+    return v.contains(p) && v[p].is_number() ? fmt::format("{:.1f}", v[p].get<double>()) : std::string("-");
+  };
+  std::printf("  latency: processing (delivered -> sendto) p50 %s p99 %s ms, capture (capture -> sendto) p50 %s p99 %s ms\n",
+              ms("processing_latency_ms", "p50").c_str(), ms("processing_latency_ms", "p99").c_str(),
+              ms("capture_latency_ms", "p50").c_str(), ms("capture_latency_ms", "p99").c_str());
   for (const auto& c : j.value("cameras", nlohmann::json::array())) {
     std::printf("  %-10s %-5s %5.1f fps  detect %5.1f ms  %4.1f markers  drops %llu  corrupt %llu  errors %llu  %s\n",
                 c.value("name", "?").c_str(), c.value("state", "?").c_str(), c.value("fps", 0.0),

@@ -73,6 +73,7 @@ void CameraWorker::run() {
       continue;
     }
     if (status != ips::FrameSource::ReadStatus::kFrame) continue;
+    if (frame.t_delivered_ns == 0) frame.t_delivered_ns = ips::monotonic_ns();
     // Newest frame only: while the frame in hand is more than 1.5 frame periods old (a backlog
     // in the driver's queue, or a simulated camera behind schedule), take the next one that
     // is already waiting, counting what is skipped. A fresh frame is never read past: for a
@@ -85,6 +86,7 @@ void CameraWorker::run() {
         continue;
       }
       if (more != ips::FrameSource::ReadStatus::kFrame) break;
+      if (newer.t_delivered_ns == 0) newer.t_delivered_ns = ips::monotonic_ns();
       std::swap(frame, newer);
     }
     if (have_sequence && frame.sequence > last_sequence + 1) stats_.drops += frame.sequence - last_sequence - 1;
@@ -106,11 +108,25 @@ void CameraWorker::process(ips::Frame& frame) {
   const auto detections = detector_->detect(frame.gray, &intrinsics);
   ips::FrameObservations batch;
   batch.camera_index = index;
+  // cameras[].timestamp_offset: the source's stamp -> mid exposure (README "Time").
+  const auto offset = static_cast<std::int64_t>(std::llround(config_.timestamp_offset_s * 1e9));
+  frame.t_mono_ns += offset;
+  frame.t_real_ns += offset;
   batch.t_mono_ns = frame.t_mono_ns;
   batch.t_real_ns = frame.t_real_ns;
+  batch.t_delivered_ns = frame.t_delivered_ns;
   const ips::Mapper& mapper = *rt->mappers[static_cast<std::size_t>(index)];
   for (const auto& d : detections) {
-    const double height = rt->config.markers.height_of(d.id);
+    double height = rt->config.markers.height_of(d.id);
+    const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt->sizes.length_of(d.id));
+    Eigen::Vector3d ray_origin, ray_direction;
+    const bool ray_only = mapper.needs_height() && std::isnan(height) &&
+                          mapper.world_ray(cam.p_cam, ray_origin, ray_direction);
+    if (ray_only) {
+      // Height unknown: the depth-formula point on the ray stands in (z from the marker size);
+      // fusion triangulates it with other cameras' rays.
+      height = (ray_origin + cam.p_cam.norm() * ray_direction).z();
+    }
     if (mapper.needs_height() && std::isnan(height)) {
       if (stats_.no_height++ == 0)
         spdlog::warn("{}: marker {} has no known height and the '{}' mapper needs one (markers.ids.{}.height); "
@@ -118,9 +134,14 @@ void CameraWorker::process(ips::Frame& frame) {
                      config_.name, d.id, mapper.method(), d.id);
       continue;
     }
-    const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt->sizes.length_of(d.id));
     ips::WorldObservation w = ips::to_world(cam, mapper, height, index, frame.t_mono_ns, frame.t_real_ns);
     if (!w.p_world.allFinite() || !std::isfinite(w.yaw)) continue;  // degenerate corners
+    if (ray_only) {
+      w.height_known = false;
+      w.has_ray = true;
+      w.ray_origin = ray_origin;
+      w.ray_direction = ray_direction;
+    }
     batch.observations.push_back(w);
   }
   stats_.detect_ns += static_cast<std::uint64_t>(ips::monotonic_ns() - t0);

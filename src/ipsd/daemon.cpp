@@ -131,9 +131,12 @@ void Daemon::tick(std::int64_t now) {
     sd_notify(0, ("STATUS=" + systemd_status(p.rates)).c_str());
   }
   const double interval = rt->config.status.interval_s;
-  if (interval > 0 && now >= next_status_log_ns_) {
-    next_status_log_ns_ = now + static_cast<std::int64_t>(interval * 1e9);
-    for (const auto& line : status_lines(p.rates, p.fusion_stats, p.queue.dropped())) spdlog::info("status {}", line);
+  if (now >= next_status_log_ns_) {
+    // Latency percentiles cover one status interval (10 s when status lines are off).
+    next_status_log_ns_ = now + static_cast<std::int64_t>((interval > 0 ? interval : 10.0) * 1e9);
+    p.fusion_stats.latency.rotate();
+    if (interval > 0)
+      for (const auto& line : status_lines(p.rates, p.fusion_stats, p.queue.dropped())) spdlog::info("status {}", line);
   }
   // Watchdog: only if every thread's loop went round recently. A stuck detector or a
   // deadlocked fusion thread therefore gets the daemon restarted by systemd.
@@ -184,7 +187,7 @@ int Daemon::run() {
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   sd_notify(0, "READY=1\nSTATUS=running");
   next_sample_ns_ = started_ns_ + kSampleNs;
-  next_status_log_ns_ = started_ns_ + static_cast<std::int64_t>(runtime_.get()->config.status.interval_s * 1e9);
+  next_status_log_ns_ = started_ns_ + static_cast<std::int64_t>((runtime_.get()->config.status.interval_s > 0 ? runtime_.get()->config.status.interval_s : 10.0) * 1e9);
 
   bool running = true;
   while (running) {

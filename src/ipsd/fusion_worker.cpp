@@ -5,17 +5,34 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
-#include <set>
 
 #include "ips/clock.h"
-#include "ips/kalman.h"
 
 namespace ipsd {
 
 namespace {
 // Longest wait for a batch: bounds the heartbeat period and the time to notice a stop.
 constexpr std::int64_t kPopTimeoutNs = 100'000'000;
+
+ips::TrackFusionOptions fusion_options(const ips::FusionConfig& c) {
+  ips::TrackFusionOptions o;
+  o.window_s = c.window_s;
+  o.velocity_span_s = c.velocity_span_s;
+  o.history_s = c.history_s;
+  o.single_camera_depth = c.single_camera_depth;
+  o.kalman = c.kalman;
+  o.kalman_options = c.kalman_options;
+  return o;
+}
+
+bool same_options(const ips::TrackFusionOptions& a, const ips::TrackFusionOptions& b) {
+  return a.window_s == b.window_s && a.velocity_span_s == b.velocity_span_s && a.history_s == b.history_s &&
+         a.single_camera_depth == b.single_camera_depth &&
+         a.kalman == b.kalman && a.kalman_options.process_noise == b.kalman_options.process_noise &&
+         a.kalman_options.measurement_noise == b.kalman_options.measurement_noise &&
+         a.kalman_options.reset_after_s == b.kalman_options.reset_after_s &&
+         a.kalman_options.initial_velocity_std == b.kalman_options.initial_velocity_std;
+}
 }  // namespace
 
 FusionWorker::FusionWorker(RuntimeHolder& runtime, ObservationQueue& queue, std::vector<CameraStats*> cameras,
@@ -39,70 +56,63 @@ void FusionWorker::join() {
 void FusionWorker::run() {
   pthread_setname_np(pthread_self(), "fusion");
   std::shared_ptr<const Runtime> rt = runtime_.get();
-  auto make_grouper = [](const Runtime& r) {
-    return ips::FrameGrouper(static_cast<std::int64_t>(r.config.fusion.window_s * 1e9),
-                             static_cast<std::int64_t>(r.config.fusion.max_wait_s * 1e9));
-  };
-  ips::FrameGrouper grouper = make_grouper(*rt);
-  if (rt->config.fusion.kalman) tracker_.emplace(rt->config.fusion.kalman_options);
-  std::vector<std::vector<ips::FrameObservations>> done;
+  ips::TrackFusion fusion(fusion_options(rt->config.fusion));
+  std::uint64_t counted_late = 0, counted_too_old = 0;
+  std::int64_t next_tick = 0;  // fixed-rate output: next publish time, CLOCK_MONOTONIC
+  std::vector<ips::FusedMarker> states;
 
   while (!stop_) {
     const std::int64_t now = ips::monotonic_ns();
     stats_.heartbeat_ns = now;
-    // A reload may change the window, the method, the filter or the outputs.
+    // A reload may change the fusion options, the method or the outputs. Tracks (and with them
+    // the order guarantee) survive a reload unless the fusion options changed.
     if (auto latest = runtime_.get(); latest != rt) {
-      grouper.poll(std::numeric_limits<std::int64_t>::max(), done);  // flush with the old settings
-      for (auto& set : done) publish(set, *rt);
-      done.clear();
-      if (latest->config.fusion.window_s != rt->config.fusion.window_s ||
-          latest->config.fusion.max_wait_s != rt->config.fusion.max_wait_s)
-        grouper = make_grouper(*latest);
-      if (!latest->config.fusion.kalman) {
-        tracker_.reset();
-      } else if (!tracker_ ||
-                 latest->config.fusion.kalman_options.process_noise != rt->config.fusion.kalman_options.process_noise ||
-                 latest->config.fusion.kalman_options.measurement_noise != rt->config.fusion.kalman_options.measurement_noise ||
-                 latest->config.fusion.kalman_options.reset_after_s != rt->config.fusion.kalman_options.reset_after_s ||
-                 latest->config.fusion.kalman_options.initial_velocity_std != rt->config.fusion.kalman_options.initial_velocity_std) {
-        tracker_.emplace(latest->config.fusion.kalman_options);
+      if (!same_options(fusion_options(latest->config.fusion), fusion.options())) {
+        stats_.late += fusion.counters().late - counted_late;
+        stats_.too_old += fusion.counters().too_old - counted_too_old;
+        counted_late = counted_too_old = 0;
+        ips::TrackFusion fresh(fusion_options(latest->config.fusion));
+        fresh.continue_after(fusion);
+        fusion = std::move(fresh);
       }
       rt = latest;
     }
-    // A set is complete once every camera that is currently delivering is in it.
-    std::set<int> expected;
-    for (std::size_t i = 0; i < cameras_.size(); ++i)
-      if (cameras_[i]->state == static_cast<int>(CameraState::kOpen)) expected.insert(static_cast<int>(i));
-    grouper.set_expected_cameras(std::move(expected));
+    const double rate = rt->config.fusion.output_rate_hz;
+    const auto period = rate > 0 ? static_cast<std::int64_t>(std::llround(1e9 / rate)) : 0;
+    if (period > 0 && next_tick == 0) next_tick = now + period;
+    if (period == 0) next_tick = 0;
 
-    const std::int64_t deadline = grouper.deadline_ns();
-    const std::int64_t wait = deadline < 0 ? kPopTimeoutNs : std::clamp<std::int64_t>(deadline - now, 0, kPopTimeoutNs);
+    const std::int64_t wait =
+        period > 0 ? std::clamp<std::int64_t>(next_tick - now, 0, kPopTimeoutNs) : kPopTimeoutNs;
     ips::FrameObservations batch;
     if (queue_.pop(batch, wait)) {
-      grouper.add(std::move(batch), ips::monotonic_ns(), done);
-    } else {
-      grouper.poll(ips::monotonic_ns(), done);
+      states.clear();
+      fusion.add(batch, *rt->fusion, period > 0 ? nullptr : &states);
+      if (period == 0) publish(states, batch.t_mono_ns, batch.t_real_ns, batch.t_delivered_ns, *rt);
     }
-    for (auto& set : done) publish(set, *rt);
-    done.clear();
+    if (period > 0 && ips::monotonic_ns() >= next_tick) {
+      // Fixed rate: every marker's state predicted to the publish instant.
+      const std::int64_t t = ips::monotonic_ns();
+      states.clear();
+      fusion.predict_all(t, t + ips::realtime_minus_monotonic_ns(), *rt->fusion, states);
+      publish(states, t, t + ips::realtime_minus_monotonic_ns(), 0, *rt);
+      next_tick = std::max(next_tick + period, t);
+    }
+    stats_.late += fusion.counters().late - counted_late;
+    stats_.too_old += fusion.counters().too_old - counted_too_old;
+    counted_late = fusion.counters().late;
+    counted_too_old = fusion.counters().too_old;
   }
 }
 
-void FusionWorker::publish(std::vector<ips::FrameObservations>& set, const Runtime& rt) {
-  std::vector<ips::WorldObservation> all;
+void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, std::int64_t t_mono_ns, std::int64_t t_real_ns,
+                           std::int64_t t_delivered_ns, const Runtime& rt) {
   ips::Datagram d;
-  d.capture_monotonic_ns = std::numeric_limits<std::int64_t>::min();
-  for (const auto& b : set) {
-    all.insert(all.end(), b.observations.begin(), b.observations.end());
-    if (b.t_mono_ns > d.capture_monotonic_ns) {  // the update carries its newest frame's time
-      d.capture_monotonic_ns = b.t_mono_ns;
-      d.capture_realtime_ns = b.t_real_ns;
-    }
-  }
+  d.capture_monotonic_ns = t_mono_ns;  // per-frame: the frame's capture time; fixed rate: the prediction time
+  d.capture_realtime_ns = t_real_ns;
   d.update = update_++;
-  d.has_velocity = tracker_.has_value();
-  for (ips::FusedMarker& f : ips::fuse(all, *rt.fusion)) {
-    if (tracker_) tracker_->update(f);
+  d.has_velocity = rt.config.fusion.kalman;
+  for (const ips::FusedMarker& f : states) {
     ips::MarkerRecord m;
     m.id = static_cast<std::uint32_t>(f.id);
     m.camera_mask = f.camera_mask;
@@ -120,6 +130,8 @@ void FusionWorker::publish(std::vector<ips::FrameObservations>& set, const Runti
     d.markers.push_back(m);
   }
   rt.publisher->publish(d);
+  const std::int64_t sent = ips::monotonic_ns();  // after the last sendto of the update
+  if (t_delivered_ns > 0) stats_.latency.add(sent - t_delivered_ns, sent - t_mono_ns);
   ++stats_.updates;
   stats_.last_latency_ns = rt.publisher->last_latency_ns();
   std::lock_guard lock(stats_.outputs_mutex);

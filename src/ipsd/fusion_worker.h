@@ -1,5 +1,6 @@
-// The fusion + publish thread: groups the cameras' per-frame batches by capture time, fuses
-// each marker, optionally Kalman-filters it, and sends one update per frame set.
+// The fusion + publish thread: feeds each camera frame's batch to the asynchronous fusion
+// (ips/track_fusion.h) and sends one update per camera frame at once (or, with
+// fusion.output_rate, one update per tick with every marker predicted to the tick).
 #pragma once
 
 #include <atomic>
@@ -7,7 +8,7 @@
 #include <thread>
 #include <vector>
 
-#include "ips/kalman.h"
+#include "ips/track_fusion.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -22,7 +23,8 @@ class FusionWorker {
 
  private:
   void run();
-  void publish(std::vector<ips::FrameObservations>& set, const Runtime& rt);
+  void publish(const std::vector<ips::FusedMarker>& states, std::int64_t t_mono_ns, std::int64_t t_real_ns,
+               std::int64_t t_delivered_ns, const Runtime& rt);
 
   RuntimeHolder& runtime_;
   ObservationQueue& queue_;
@@ -31,7 +33,6 @@ class FusionWorker {
   std::atomic<bool> stop_{false};
   std::thread thread_;
   std::uint32_t update_ = 0;
-  std::optional<ips::MarkerTracker> tracker_;  // engaged when fusion.kalman is on
 };
 
 }  // namespace ipsd

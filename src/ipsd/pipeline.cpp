@@ -1,6 +1,8 @@
 #include "pipeline.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "ips/error.h"
 #include "ips/source_factory.h"
@@ -32,6 +34,46 @@ std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, co
     }
   }
   return r;
+}
+
+void LatencyWindow::add(std::int64_t processing_ns, std::int64_t capture_ns) {
+  std::lock_guard lock(mutex_);
+  if (processing_.size() >= kMaxSamples) return;
+  processing_.push_back(processing_ns);
+  capture_.push_back(capture_ns);
+}
+
+void LatencyWindow::rotate() {
+  std::lock_guard lock(mutex_);
+  last_processing_.swap(processing_);
+  last_capture_.swap(capture_);
+  processing_.clear();
+  capture_.clear();
+  rotated_ = true;
+}
+
+LatencyWindow::Percentiles LatencyWindow::of(std::vector<std::int64_t> v) {
+  Percentiles p;
+  p.samples = v.size();
+  if (v.empty()) return p;
+  std::sort(v.begin(), v.end());
+  auto at = [&v](double q) {  // nearest rank
+    const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+    return 1e-6 * static_cast<double>(v[std::clamp<std::size_t>(rank, 1, v.size()) - 1]);
+  };
+  p.p50_ms = at(0.50);
+  p.p99_ms = at(0.99);
+  return p;
+}
+
+LatencyWindow::Percentiles LatencyWindow::processing() const {
+  std::lock_guard lock(mutex_);
+  return of(rotated_ ? last_processing_ : processing_);
+}
+
+LatencyWindow::Percentiles LatencyWindow::capture() const {
+  std::lock_guard lock(mutex_);
+  return of(rotated_ ? last_capture_ : capture_);
 }
 
 void ObservationQueue::push(ips::FrameObservations batch) {

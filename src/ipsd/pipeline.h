@@ -4,6 +4,7 @@
 #pragma once
 
 #include <atomic>
+#include <cmath>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -91,11 +92,38 @@ struct CameraStats {
   std::string source;                           ///< description of the source
 };
 
+/// Latency samples of one status interval: the fusion thread adds, the main thread rotates
+/// at each status interval and reads the last complete interval's percentiles.
+class LatencyWindow {
+ public:
+  struct Percentiles {
+    double p50_ms = NAN, p99_ms = NAN;
+    std::size_t samples = 0;
+  };
+  void add(std::int64_t processing_ns, std::int64_t capture_ns);
+  /// Closes the current interval (its samples become the reported ones) and starts a new one.
+  void rotate();
+  /// Of the last closed interval; before the first rotate(), of the samples so far.
+  Percentiles processing() const;
+  Percentiles capture() const;
+
+ private:
+  static Percentiles of(std::vector<std::int64_t> v);
+  static constexpr std::size_t kMaxSamples = 100000;  // bounds memory for long intervals
+  mutable std::mutex mutex_;
+  std::vector<std::int64_t> processing_, capture_;            // current interval
+  std::vector<std::int64_t> last_processing_, last_capture_;  // last closed interval
+  bool rotated_ = false;
+};
+
 /// Counters of the fusion thread.
 struct FusionStats {
   std::atomic<std::uint64_t> updates{0};
   std::atomic<std::int64_t> heartbeat_ns{0};
   std::atomic<std::int64_t> last_latency_ns{0};  ///< capture -> sendto of the last datagram
+  std::atomic<std::uint64_t> late{0};     ///< observations that arrived after a newer output of their marker
+  std::atomic<std::uint64_t> too_old{0};  ///< observations dropped: older than fusion.history
+  LatencyWindow latency;                  ///< delivered -> sendto and capture -> sendto
   std::mutex outputs_mutex;
   std::vector<ips::OutputStats> outputs;
 };

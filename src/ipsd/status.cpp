@@ -58,8 +58,13 @@ std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fus
     if (c.state != "open" && !c.last_error.empty()) line += " (" + c.last_error + ")";
     lines.push_back(line);
   }
-  std::string out = fmt::format("fusion: {:.1f} updates/s, latency {:.1f} ms, queue drops {}", rates.updates_per_s(),
-                                1e-6 * static_cast<double>(fusion.last_latency_ns.load()), queue_drops);
+  const auto proc = fusion.latency.processing();
+  const auto cap = fusion.latency.capture();
+  std::string out = fmt::format(
+      "fusion: {:.1f} updates/s, processing latency p50 {:.1f} p99 {:.1f} ms, capture latency p50 {:.1f} p99 {:.1f} ms, "
+      "late {}, too old {}, queue drops {}",
+      rates.updates_per_s(), proc.p50_ms, proc.p99_ms, cap.p50_ms, cap.p99_ms, fusion.late.load(), fusion.too_old.load(),
+      queue_drops);
   std::lock_guard lock(fusion.outputs_mutex);
   for (const auto& o : fusion.outputs)
     out += fmt::format("; {}: sent {}, errors {}", o.description, o.datagrams, o.send_errors);
@@ -90,6 +95,18 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
   j["updates"] = fusion.updates.load();
   j["updates_per_s"] = rates.updates_per_s();
   j["latency_ms"] = 1e-6 * static_cast<double>(fusion.last_latency_ns.load());
+  // Over the last status interval; null when there were no samples.
+  auto percentiles = [](const LatencyWindow::Percentiles& p) {
+    nlohmann::json o;
+    o["p50"] = p.samples ? nlohmann::json(p.p50_ms) : nlohmann::json(nullptr);
+    o["p99"] = p.samples ? nlohmann::json(p.p99_ms) : nlohmann::json(nullptr);
+    o["samples"] = p.samples;
+    return o;
+  };
+  j["processing_latency_ms"] = percentiles(fusion.latency.processing());
+  j["capture_latency_ms"] = percentiles(fusion.latency.capture());
+  j["fusion_late"] = fusion.late.load();
+  j["fusion_too_old"] = fusion.too_old.load();
   j["queue_drops"] = queue_drops;
   j["cameras"] = nlohmann::json::array();
   for (const auto& c : rates.cameras()) {

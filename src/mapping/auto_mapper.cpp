@@ -22,6 +22,9 @@ class AutoMapper final : public Mapper {
   std::string method() const override { return "auto"; }
   std::size_t min_points() const override { return 4; }
   bool needs_height() const override { return chosen_ && chosen_->needs_height(); }
+  bool world_ray(const Eigen::Vector3d& cam, Eigen::Vector3d& origin, Eigen::Vector3d& direction) const override {
+    return chosen_ && chosen_->world_ray(cam, origin, direction);
+  }
 
   void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
            const FitOptions& options) override {

@@ -35,12 +35,17 @@ struct Pose {
   double k1 = 0.0, k2 = 0.0;
 };
 
-/// Where the ray of camera point `cam` meets z = h, or NaN if it runs parallel/away.
-Eigen::Vector2d intersect(const Pose& pose, const Eigen::Vector3d& cam, double h) {
+/// World direction (not normalised, z component 1 in the camera frame) of the ray of `cam`.
+Eigen::Vector3d ray_direction(const Pose& pose, const Eigen::Vector3d& cam) {
   const double u = cam.x() / cam.z(), v = cam.y() / cam.z();
   const double r2 = u * u + v * v;
   const double f = 1.0 + pose.k1 * r2 + pose.k2 * r2 * r2;
-  const Eigen::Vector3d d = pose.R * Eigen::Vector3d(u * f, v * f, 1.0);
+  return pose.R * Eigen::Vector3d(u * f, v * f, 1.0);
+}
+
+/// Where the ray of camera point `cam` meets z = h, or NaN if it runs parallel/away.
+Eigen::Vector2d intersect(const Pose& pose, const Eigen::Vector3d& cam, double h) {
+  const Eigen::Vector3d d = ray_direction(pose, cam);
   const double s = (h - pose.t.z()) / d.z();
   if (!(s > 0.0) || !std::isfinite(s))
     return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
@@ -144,6 +149,13 @@ class PlaneMapper final : public Mapper {
           "ray with the plane z = height)");
     const Eigen::Vector2d xy = intersect(pose_, cam, known_height);
     return Eigen::Vector3d(xy.x(), xy.y(), known_height);
+  }
+
+  bool world_ray(const Eigen::Vector3d& cam, Eigen::Vector3d& origin, Eigen::Vector3d& direction) const override {
+    if (!(cam.z() > 0.0)) return false;
+    origin = pose_.t;
+    direction = ray_direction(pose_, cam).normalized();
+    return direction.allFinite();
   }
 
   nlohmann::json to_json() const override {

@@ -69,7 +69,11 @@ TEST_F(ConfigTest, MinimalConfigGetsTheDocumentedDefaults) {
   EXPECT_DOUBLE_EQ(c.markers.edge_length, 0.20);
   EXPECT_TRUE(std::isnan(c.markers.height_of(3)));
   EXPECT_EQ(c.fusion.method, "mean");
-  EXPECT_DOUBLE_EQ(c.fusion.window_s, 0.020);
+  EXPECT_DOUBLE_EQ(c.fusion.window_s, 0.050);
+  EXPECT_DOUBLE_EQ(c.fusion.history_s, 0.250);
+  EXPECT_DOUBLE_EQ(c.fusion.output_rate_hz, 0.0);
+  EXPECT_FALSE(c.fusion.single_camera_depth);
+  EXPECT_DOUBLE_EQ(cam.timestamp_offset_s, 0.0);
   EXPECT_FALSE(c.fusion.kalman);
   EXPECT_TRUE(c.outputs.empty());
   EXPECT_EQ(c.log_level, "info");
@@ -156,6 +160,10 @@ fusion:
   method: gauss
   window: 0.01
   max_wait: 0.04
+  velocity_span: 0.1
+  history: 0.5
+  single_camera_depth: true
+  output_rate: 100
   kalman: {enabled: true, process_noise: 2.0, measurement_noise: 0.0004, reset_after: 1.0}
 outputs:
   - {type: multicast, address: 239.1.2.3, port: 5005, format: json, ttl: 2, interface: 10.0.0.5}
@@ -189,6 +197,10 @@ watchdog: {stall_timeout: 3}
   EXPECT_EQ(c.fusion.method, "gauss");
   EXPECT_TRUE(c.fusion.kalman);
   EXPECT_DOUBLE_EQ(c.fusion.kalman_options.process_noise, 2.0);
+  EXPECT_DOUBLE_EQ(c.fusion.velocity_span_s, 0.1);
+  EXPECT_DOUBLE_EQ(c.fusion.history_s, 0.5);
+  EXPECT_TRUE(c.fusion.single_camera_depth);
+  EXPECT_DOUBLE_EQ(c.fusion.output_rate_hz, 100.0);
   ASSERT_EQ(c.outputs.size(), 2u);
   EXPECT_EQ(c.outputs[0].kind, OutputConfig::Kind::kMulticast);
   EXPECT_EQ(c.outputs[0].format, WireFormat::kJson);
@@ -219,6 +231,10 @@ TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
   expect_error(m + "fusion: {method: average}\n", {"fusion.method: unknown method 'average' (mean|area|gauss|median)"});
   expect_error(m + "fusion: {window: soon}\n", {"fusion.window: expected a number, got 'soon'"});
   expect_error(m + "fusion: {max_wait: -1}\n", {"fusion.max_wait: must be > 0"});
+  expect_error(m + "fusion: {window: 0.3}\n", {"fusion.history: must be >= fusion.window"});
+  expect_error(m + "fusion: {output_rate: 5000}\n", {"fusion.output_rate: must be <= 1000 Hz"});
+  expect_error(std::string(kMinimal).replace(m.find("    intrinsics"), 0, "    timestamp_offset: 2\n"),
+               {"cameras[0].timestamp_offset: must be within [-1, 1] seconds"});
   expect_error(m + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: 70000}\n", {"outputs[0].port: must be 1..65535"});
   expect_error(m + "outputs:\n  - {type: anycast, address: 127.0.0.1, port: 7}\n", {"outputs[0].type: unknown value 'anycast'"});
   expect_error(m + "outputs:\n  - {type: unicast, port: 7}\n", {"outputs[0].address: required key is missing"});

@@ -15,6 +15,7 @@
 #include "ips/model_file.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
+#include "plane_model.h"
 #include "process_util.h"
 #include "published_scene.h"
 
@@ -45,34 +46,8 @@ class IpsdTest : public ::testing::Test {
     trajectory: {type: line, from: [1.6, 1.2], to: [3.2, 3.6], speed: 0.25}
 )");
     std::ofstream(*dir_ / "scene.yaml") << scene;
-    // The model: the plane mapper fitted per camera on simulated calibration pairs (what
-    // tools/demo.sh does with `ips sim collect` + `ips fit`). The pairs come from the exact
-    // projected corners through the depth formula rather than from rendered images, so that
-    // the suite stays fast under the sanitizers; detection noise is in the daemon's run.
-    const auto scene_model = sim::Scene::load(*dir_ / "scene.yaml");
-    ModelSet models;
-    std::mt19937_64 rng(7);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    for (std::size_t c = 0; c < scene_model.cameras.size(); ++c) {
-      const sim::CameraRenderer renderer(scene_model, c);
-      sim::SceneMarker marker;
-      marker.id = 0;
-      marker.length = 0.20;
-      std::vector<Eigen::Vector3d> cam, world;
-      while (cam.size() < 30) {
-        const sim::MarkerPose pose{0.2 + 4.48 * u(rng), 0.2 + 4.48 * u(rng), 0.2 * u(rng), 6.283 * u(rng)};
-        const sim::MarkerTruth truth = renderer.truth_of(marker, pose);
-        if (!truth.visible) continue;
-        cam.push_back(truth.formula.p_cam);
-        world.emplace_back(pose.x, pose.y, pose.z);
-      }
-      CameraModelEntry entry;
-      entry.mapper = make_mapper("plane");
-      entry.mapper->fit(cam, world, FitOptions{});
-      entry.training = {{"n", cam.size()}, {"source", "ipsd_test: exact simulated pairs"}};
-      models.cameras[scene_model.cameras[c].name] = std::move(entry);
-    }
-    save_model_file(models, *dir_ / "model.json");
+    // The model: the plane mapper fitted per camera on exact simulated pairs.
+    test::write_plane_model(*dir_ / "scene.yaml", *dir_ / "model.json");
   }
   static void TearDownTestSuite() {
     fs::remove_all(*dir_);
@@ -411,8 +386,6 @@ TEST_F(IpsdTest, MalformedConfigurationsAreRefusedWithExitStatus2) {
        "cameras[0].intrinsics: no such file"},
       {"unknown scene camera", replace(good, "{name: red,", "{name: red, scene_camera: green,"),
        "cameras[0].scene_camera: scene has no camera 'green'"},
-      {"no height for plane", replace(good, "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n", ""),
-       "markers.height"},
       {"bad output", replace(good, "type: unicast", "type: multicast"), "outputs[0].address: '127.0.0.1' is not a multicast group"},
   };
   for (const auto& c : cases) {

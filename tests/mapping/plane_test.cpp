@@ -72,6 +72,27 @@ TEST(PlaneMapper, RecoversASyntheticCameraPoseDespiteDepthNoise) {
   EXPECT_THROW(plane->predict(c), ips::InputError);  // no height given
 }
 
+TEST(PlaneMapper, WorldRayStartsAtTheCameraAndPassesThroughTheMarker) {
+  const Scene s = make_scene(0.03);
+  auto plane = ips::make_mapper("plane");
+  plane->fit(s.cam, s.world, {});
+  // The ray through a camera point whatever its depth: origin = the true camera centre, and
+  // the true marker lies on it (what triangulation relies on).
+  const Eigen::Vector3d w(1.23, 3.21, 0.12);
+  const Eigen::Vector3d c = s.R.transpose() * (w - s.t) * 1.1;  // wrong depth on purpose
+  Eigen::Vector3d origin, direction;
+  ASSERT_TRUE(plane->world_ray(c, origin, direction));
+  EXPECT_LT((origin - s.t).norm(), 1e-6);
+  EXPECT_NEAR(direction.norm(), 1.0, 1e-12);
+  const Eigen::Vector3d r = w - origin;
+  EXPECT_LT((r - r.dot(direction) * direction).norm(), 1e-6);
+  EXPECT_GT(r.dot(direction), 0.0);  // in front of the camera
+  // A mapper without a pose gives no ray.
+  auto rt = ips::make_mapper("rt");
+  rt->fit(s.cam, s.world, {});
+  EXPECT_FALSE(rt->world_ray(c, origin, direction));
+}
+
 TEST(PlaneMapper, BeatsPolynomialIn2DWhenDepthIsNoisy) {
   const Scene s = make_scene(0.01);
   const auto plane = ips::cross_validate("plane", s.cam, s.world, 4, {});

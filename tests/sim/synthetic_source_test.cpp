@@ -89,6 +89,39 @@ TEST(SyntheticSource, RealtimeFramesAreNotEarlyAndEndAfterMaxFrames) {
   EXPECT_EQ(src.read(f, std::chrono::milliseconds(10)), ips::FrameSource::ReadStatus::kEnd);
 }
 
+TEST(SyntheticSource, RenderAheadDeliversAfterTheTransportDelayTheSameFrames) {
+  // Frames rendered ahead on the source's own thread are handed over at capture + delay, and
+  // are the very frames the synchronous path renders (same scene time, same noise, same JPEG).
+  const std::int64_t epoch = ips::monotonic_ns() + 300'000'000;  // leaves time to render ahead
+  ips::sim::SyntheticSourceOptions o{.camera = "white", .fps = 20, .realtime = true, .epoch_mono_ns = epoch,
+                                     .max_frames = 3};
+  o.render_ahead = true;
+  o.transport_delay_ns = 30'000'000;
+  o.phase_ns = 7'000'000;
+  ips::sim::SyntheticSourceOptions sync = o;
+  sync.realtime = false;
+  sync.render_ahead = false;
+  sync.max_frames = 0;
+  ips::sim::SyntheticSource ahead(published_scene(), o), reference(published_scene(), sync);
+  ahead.open();
+  reference.open();
+  ips::Frame f, g;
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_EQ(ahead.read(f, std::chrono::milliseconds(5000)), ips::FrameSource::ReadStatus::kFrame);
+    const std::int64_t returned = ips::monotonic_ns();
+    do {  // the same frame (the renderer may skip one on a loaded machine, as a camera drops)
+      ASSERT_EQ(reference.read(g, std::chrono::milliseconds(0)), ips::FrameSource::ReadStatus::kFrame);
+    } while (g.sequence < f.sequence);
+    EXPECT_EQ(f.sequence, g.sequence);
+    EXPECT_EQ(f.t_mono_ns, epoch + 7'000'000 + static_cast<std::int64_t>(f.sequence) * 50'000'000);
+    EXPECT_EQ(f.t_mono_ns, g.t_mono_ns);
+    EXPECT_GE(f.t_delivered_ns, f.t_mono_ns + 30'000'000);
+    EXPECT_GE(returned, f.t_delivered_ns);
+    EXPECT_EQ(cv::norm(f.gray, g.gray, cv::NORM_INF), 0.0) << "frame " << f.sequence;
+  }
+  EXPECT_EQ(ahead.read(f, std::chrono::milliseconds(10)), ips::FrameSource::ReadStatus::kEnd);
+}
+
 TEST(SyntheticSource, RejectsUnknownCameraAndBadRate) {
   EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "green"}), ips::InputError);
   EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "red", .fps = 0}),

@@ -1,6 +1,6 @@
 // A FrameSource that renders one camera of a simulated Scene (moving markers, exact truth).
 //
-// Time: frame k is captured at scene time t_k = k / fps. Scene time 0 is the CLOCK_MONOTONIC
+// Time: frame k is captured at scene time t_k = phase + k / fps (phase 0 unless set). Scene time 0 is the CLOCK_MONOTONIC
 // instant `epoch_mono_ns`, so frame k carries t_mono_ns = epoch + round(k * 1e9 / fps) and
 // scene_time(t_mono_ns) recovers t_k. Several sources of the same scene given the same epoch
 // (one per camera) therefore agree on the scene time of any capture time, and the truth of a
@@ -13,10 +13,21 @@
 // Pacing: `realtime` sleeps until each frame's capture time, like a camera; if rendering
 // falls behind, frames are skipped (sequence numbers jump, as with driver drops). Otherwise
 // frames come as fast as they render, still stamped with their simulated capture times.
+//
+// Render ahead (`render_ahead`, realtime only; what the daemon uses): a thread of its own
+// ("sim:<camera>", niced, so it runs on spare CPU) renders and JPEG-encodes frames before
+// they are due, up to kAhead frames; read() hands frame k over at its capture time plus
+// `transport_delay_ns` (like MJPEG arriving over USB one frame period after the exposure) and
+// decodes it there, as a USB camera's reader does. So a reader's cost is the decode, not the
+// renderer. Frame::t_delivered_ns is the hand-over time (later than due if rendering fell behind).
 #pragma once
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
+#include <mutex>
+#include <thread>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +47,9 @@ struct SyntheticSourceOptions {
       0;                         ///< CLOCK_MONOTONIC of scene time 0; 0 = monotonic_ns() at open()
   std::uint64_t max_frames = 0;  ///< read() returns kEnd after this many frames; 0 = endless
   bool colour_jpeg = false;  ///< encode as 3-channel MJPEG like a USB camera (slower) or 1-channel
+  bool render_ahead = false;  ///< realtime only: render on a thread of its own, deliver with a delay
+  std::int64_t transport_delay_ns = -1;
+  std::int64_t phase_ns = 0;  ///< frame k is captured at scene time phase + k / fps (unsynchronised cameras)  ///< render_ahead: capture -> delivery, ns; -1 = one frame period
 };
 
 class SyntheticSource : public FrameSource {
@@ -43,6 +57,10 @@ class SyntheticSource : public FrameSource {
   /// Throws ips::InputError for an unknown camera name or fps <= 0. Builds the camera's
   /// renderer (ray map, background): ~0.3 s at 1080p.
   SyntheticSource(std::shared_ptr<const Scene> scene, SyntheticSourceOptions options);
+
+  ~SyntheticSource() override;
+  SyntheticSource(const SyntheticSource&) = delete;
+  SyntheticSource& operator=(const SyntheticSource&) = delete;
 
   void open() override;
   ReadStatus read(Frame& out, std::chrono::milliseconds timeout) override;
@@ -65,6 +83,22 @@ class SyntheticSource : public FrameSource {
 
  private:
   std::int64_t frame_time_ns(std::uint64_t k) const;
+  void render_loop();
+  ReadStatus read_ahead(Frame& out, std::chrono::milliseconds timeout);
+
+  static constexpr std::size_t kAhead = 2;  ///< frames rendered ahead at most
+  struct Rendered {
+    std::uint64_t k = 0;
+    std::vector<std::uint8_t> jpeg;  ///< or, with jpeg_quality 0:
+    cv::Mat gray;
+    std::int64_t ready_ns = 0;  ///< when rendering finished
+  };
+  std::thread render_thread_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Rendered> ready_;
+  bool stop_render_ = false;
+  std::int64_t delay_ns_ = 0;
 
   std::shared_ptr<const Scene> scene_;
   SyntheticSourceOptions options_;
