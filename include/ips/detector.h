@@ -79,7 +79,7 @@ struct DetectorOptions {
   /// check.
   int max_ambiguous_cells = 2;
   double cell_ambiguity = 0.2;
-  int min_clear_margin = 3;
+  int min_clear_margin = 2;
   /// A marker whose black border and white quiet zone differ by less than this many grey
   /// levels is rejected by the verification.
   double min_contrast = 25.0;

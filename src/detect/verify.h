@@ -24,7 +24,7 @@ struct CellCheck {
   double ambiguity = 0.2;          ///< |value - mid| < ambiguity x contrast: ambiguous cell
   int max_ambiguous_cells = 2;     ///< more than this: the code must single out the id
   double min_contrast = 25;        ///< grey levels between border and quiet zone, at least
-  int min_clear_margin = 3;        ///< clear cells on which every other code must differ
+  int min_clear_margin = 2;        ///< clear cells on which every other code must differ
   double error_correction_rate = 0.6;
   double max_border_error_rate = 0.35;
 };

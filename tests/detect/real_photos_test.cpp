@@ -150,8 +150,10 @@ TEST(RealPhotos, LocateWithoutIntrinsicsReportsIdsAndPixelCorners) {
     const auto& m = j.at("markers")[i];
     EXPECT_EQ(m.at("id").get<int>(), found[i].id);
     for (std::size_t k = 0; k < 4; ++k) {
-      EXPECT_NEAR(m.at("corners")[k][0].get<double>(), found[i].corners_px[k].x, 1e-6);
-      EXPECT_NEAR(m.at("corners")[k][1].get<double>(), found[i].corners_px[k].y, 1e-6);
+      // ips decodes the JPEG with libjpeg-turbo, cv::imread with its own build: a few grey
+      // levels apart in places.
+      EXPECT_NEAR(m.at("corners")[k][0].get<double>(), found[i].corners_px[k].x, 0.1);
+      EXPECT_NEAR(m.at("corners")[k][1].get<double>(), found[i].corners_px[k].y, 0.1);
     }
     EXPECT_GT(m.at("zc").get<double>(), 0.0);  // in front of the guessed camera
   }
