@@ -212,6 +212,33 @@ TEST(Detector, SmallMarkersAreAllFoundWithDefaultSettings) {
   EXPECT_FALSE(plan.full_resolution_pass);
 }
 
+// The automatic plan (hand-computed): smallest marker max(16, side / 80), scale the largest
+// integer keeping it >= 12 px; explicit values are kept, a full-resolution pass added when
+// the explicit scale cannot see the smallest marker.
+TEST(Detector, PlanFollowsImageSizeAndSmallestMarker) {
+  struct Case {
+    cv::Size size;
+    double min_marker_px;
+    int detect_scale;
+    double want_min;
+    int want_scale;
+    bool want_fine;
+  };
+  for (const Case& c : {Case{{640, 480}, 0, 0, 16, 1, false}, Case{{1280, 960}, 0, 0, 16, 1, false},
+                        Case{{1920, 1080}, 0, 0, 24, 2, false}, Case{{3840, 2160}, 0, 0, 48, 4, false},
+                        Case{{1920, 1080}, 40, 0, 40, 3, false}, Case{{1920, 1080}, 0, 1, 24, 1, false},
+                        Case{{1920, 1080}, 0, 3, 24, 3, true}, Case{{320, 240}, 0, 2, 16, 2, true}}) {
+    ips::DetectorOptions o;
+    o.min_marker_px = c.min_marker_px;
+    o.detect_scale = c.detect_scale;
+    const auto plan = ips::plan_detection(o, c.size);
+    SCOPED_TRACE(std::to_string(c.size.width) + "x" + std::to_string(c.size.height));
+    EXPECT_DOUBLE_EQ(plan.min_marker_px, c.want_min);
+    EXPECT_EQ(plan.scale, c.want_scale);
+    EXPECT_EQ(plan.full_resolution_pass, c.want_fine);
+  }
+}
+
 // An explicit scale too coarse for the smallest marker adds a full-resolution pass for the
 // small ones (multi-scale): the same markers as the automatic plan.
 TEST(Detector, ExplicitCoarseScaleSearchesSmallMarkersAtFullResolution) {
