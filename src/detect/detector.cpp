@@ -134,15 +134,26 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rec
   std::vector<MarkerDetection> out;
   if (roi.width < 8 || roi.height < 8) return out;
   const DetectionPlan plan = plan_detection(o, gray.size());
+  const int cells = d.dictionary->markerSize + 2;
 
   // 1-2. Candidate squares in the region, corners at full resolution: decoded ones with their
   // id, the others (id -1) read again below.
   d.candidates.clear();
   d.search.run(gray(roi), roi.tl(), plan.scale, plan.min_marker_px,
                plan.full_resolution_pass ? kMinCoarseMarkerPx * plan.scale : 0.0, d.candidates);
-  const int cells = d.dictionary->markerSize + 2;
   for (auto& c : d.candidates) {
-    if (c.id < 0) c.id = detail::decode_marker(gray, c.corners, *d.dictionary, d.check);
+    if (c.id >= 0) continue;
+    bool contrasted = false;
+    c.id = detail::decode_marker(gray, c.corners, *d.dictionary, d.check, &contrasted);
+    // Coarse corners of a small square can be a third of a cell off: a square with a
+    // marker's contrast is refined and read once more.
+    if (c.id < 0 && contrasted && o.refinement == CornerRefinement::kEdges) {
+      std::array<Point2, 4> r = c.corners;
+      if (detail::refine_corners_by_edges(gray, r, cells, camera)) {
+        c.id = detail::decode_marker(gray, r, *d.dictionary, d.check);
+        if (c.id >= 0) c.corners = r;
+      }
+    }
   }
   detail::drop_duplicates(d.candidates);
   out.reserve(d.candidates.size());

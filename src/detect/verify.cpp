@@ -30,9 +30,10 @@ CodeBook::CodeBook(const cv::aruco::Dictionary& dict) : bits(dict.markerSize) {
 }
 
 int decode_marker(const cv::Mat& gray, std::array<Point2, 4>& corners,
-                  const cv::aruco::Dictionary& dict, const CellCheck& check) {
+                  const cv::aruco::Dictionary& dict, const CellCheck& check, bool* contrasted) {
   const int n = dict.markerSize, cells = n + 2;
   const CellReading r = read_cells(gray, corners, cells);
+  if (contrasted != nullptr) *contrasted = r.ok && r.contrast() >= check.min_contrast;
   if (!r.ok || r.contrast() < check.min_contrast) return -1;
   const double mid = r.mid();
   int border_white = 0;

@@ -32,9 +32,12 @@ struct CellCheck {
 /// Reads a candidate square at full resolution (cells thresholded midway between its black
 /// border and white quiet zone) and identifies it in `dict`. On success returns the id and
 /// rotates `corners` into ArUco order (corner 0 = the printed marker's top-left); -1 if it
-/// is not a marker of the dictionary.
+/// is not a marker of the dictionary. `contrasted` (optional) tells whether the square had
+/// the contrast of a marker between its border and quiet zone (worth refining and reading
+/// again when the corners were coarse).
 int decode_marker(const cv::Mat& gray, std::array<Point2, 4>& corners,
-                  const cv::aruco::Dictionary& dict, const CellCheck& check);
+                  const cv::aruco::Dictionary& dict, const CellCheck& check,
+                  bool* contrasted = nullptr);
 
 /// Accepts a decoded marker (corners in ArUco order) when its cells read clearly: at most
 /// `max_ambiguous_cells` cells within `ambiguity` x contrast of mid-grey. A genuine marker
