@@ -267,7 +267,15 @@ DetectorOptions parse_detection(const YAML::Node& n, const std::string& file) {
       r.fail(r.raw()[k], r.key(k), "must be " + range.str());
     }
   };
-  int_in("detect_scale", d.detect_scale, 1, 8);
+  int_in("detect_scale", d.detect_scale, 0, 8);
+  number_in("min_marker_px", d.min_marker_px, 0.0, 100000.0);
+  if (r.has("min_perimeter_px")) {  // the older form of min_marker_px: 4 sides
+    double perimeter = 0;
+    r.get_number("min_perimeter_px", perimeter, 0.0, true);
+    if (r.has("min_marker_px"))
+      r.fail(r.raw()["min_perimeter_px"], r.key("min_perimeter_px"), "give min_marker_px only");
+    d.min_marker_px = perimeter / 4;
+  }
   if (r.has("threshold_windows")) {
     const YAML::Node w = r.node("threshold_windows");
     if (!w.IsSequence() || w.size() == 0)
@@ -286,12 +294,12 @@ DetectorOptions parse_detection(const YAML::Node& n, const std::string& file) {
     }
   }
   number_in("threshold_constant", d.threshold_constant, 0.0, 255.0);
-  r.get_number("min_perimeter_px", d.min_perimeter_px, 0.0, true);
   r.get_number("max_perimeter_rate", d.max_perimeter_rate, 0.0, true);
   number_in("error_correction_rate", d.error_correction_rate, 0.0, 1.0);
   number_in("max_border_error_rate", d.max_border_error_rate, 0.0, 1.0);
   int_in("max_ambiguous_cells", d.max_ambiguous_cells, -1, 1000);
   number_in("cell_ambiguity", d.cell_ambiguity, 0.0, 0.5);
+  int_in("min_clear_margin", d.min_clear_margin, 1, 64);
   number_in("min_contrast", d.min_contrast, 0.0, 255.0);
   d.refinement = pick<CornerRefinement>(
       r, "refinement",

@@ -1,11 +1,13 @@
 #include "ips/detector.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "candidates.h"
 #include "edge_refine.h"
 #include "ips/error.h"
 #include "verify.h"
@@ -40,6 +42,11 @@ const std::vector<std::pair<const char*, int>>& dictionary_names() {
   return names;
 }
 
+// The automatic smallest marker: 16 px (a 6x6 marker's cells are then 2 px, about the least
+// that can be read), growing with the image like OpenCV's own default limit.
+constexpr double kAutoMinMarkerPx = 16.0;
+constexpr double kAutoMinMarkerFraction = 1.0 / 80.0;
+
 }  // namespace
 
 int dictionary_id(const std::string& name) {
@@ -51,22 +58,38 @@ int dictionary_id(const std::string& name) {
   throw InputError("unknown ArUco dictionary '" + name + "' (known: " + known + ")");
 }
 
+DetectionPlan plan_detection(const DetectorOptions& o, cv::Size image) {
+  DetectionPlan p;
+  const double side = std::max(image.width, image.height);
+  p.min_marker_px = o.min_marker_px > 0
+                        ? o.min_marker_px
+                        : std::max(kAutoMinMarkerPx, kAutoMinMarkerFraction * side);
+  p.scale = o.detect_scale > 0
+                ? o.detect_scale
+                : std::clamp(static_cast<int>(std::floor(p.min_marker_px / kMinCoarseMarkerPx)), 1, 8);
+  p.full_resolution_pass = p.scale > 1 && p.min_marker_px < kMinCoarseMarkerPx * p.scale;
+  return p;
+}
+
 struct Detector::Impl {
   DetectorOptions options;
   cv::Ptr<cv::aruco::Dictionary> dictionary;
-  cv::Ptr<cv::aruco::DetectorParameters> params;
-  cv::Mat small;
-  std::vector<std::vector<cv::Point2f>> corners;
-  std::vector<int> ids;
+  std::unique_ptr<detail::CodeBook> codes;
+  detail::CellCheck check;
+  detail::CandidateSearch search;
+  std::vector<detail::Candidate> candidates;
   std::vector<cv::Point2f> refine;
-  cv::Size params_for;  // image size the perimeter rates were computed for
 };
 
 Detector::Detector(const DetectorOptions& options) : impl_(std::make_unique<Impl>()) {
   impl_->options = options;
   const auto& o = impl_->options;
-  if (o.detect_scale < 1 || o.detect_scale > 8) {
-    throw InputError("detector: detect_scale must be 1..8, got " + std::to_string(o.detect_scale));
+  if (o.detect_scale < 0 || o.detect_scale > 8) {
+    throw InputError("detector: detect_scale must be 0 (automatic) or 1..8, got " +
+                     std::to_string(o.detect_scale));
+  }
+  if (!(o.min_marker_px >= 0) || !std::isfinite(o.min_marker_px)) {
+    throw InputError("detector: min_marker_px must be 0 (automatic) or a positive size in pixels");
   }
   if (o.threshold_windows.empty()) throw InputError("detector: threshold_windows is empty");
   for (int w : o.threshold_windows) {
@@ -76,19 +99,18 @@ Detector::Detector(const DetectorOptions& options) : impl_(std::make_unique<Impl
     }
   }
   if (o.refine_half_window_px < 1) throw InputError("detector: refine_half_window_px must be >= 1");
-  if (!(o.min_perimeter_px > 0) || !(o.max_perimeter_rate > 0)) {
-    throw InputError("detector: perimeter limits must be positive");
-  }
+  if (!(o.max_perimeter_rate > 0)) throw InputError("detector: max_perimeter_rate must be positive");
+  if (o.min_clear_margin < 1) throw InputError("detector: min_clear_margin must be >= 1");
   impl_->dictionary = cv::aruco::getPredefinedDictionary(dictionary_id(o.dictionary));
-  auto p = cv::aruco::DetectorParameters::create();
-  // A set of windows is expressed as min/max/step; arbitrary lists run one pass per entry
-  // (see detect()), so the parameters hold a single window at a time.
-  p->adaptiveThreshConstant = o.threshold_constant;
-  p->maxMarkerPerimeterRate = o.max_perimeter_rate;
-  p->errorCorrectionRate = o.error_correction_rate;
-  p->maxErroneousBitsInBorderRate = o.max_border_error_rate;
-  p->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;  // refined at full resolution below
-  impl_->params = p;
+  impl_->codes = std::make_unique<detail::CodeBook>(*impl_->dictionary);
+  auto& c = impl_->check;
+  c.ambiguity = o.cell_ambiguity;
+  c.max_ambiguous_cells = o.max_ambiguous_cells;
+  c.min_contrast = o.min_contrast;
+  c.min_clear_margin = o.min_clear_margin;
+  c.error_correction_rate = o.error_correction_rate;
+  c.max_border_error_rate = o.max_border_error_rate;
+  impl_->search.configure(o, impl_->dictionary);
 }
 
 Detector::~Detector() = default;
@@ -98,76 +120,51 @@ Detector& Detector::operator=(Detector&&) noexcept = default;
 const DetectorOptions& Detector::options() const { return impl_->options; }
 
 std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraModel* camera) {
+  return detect(gray, cv::Rect(0, 0, gray.cols, gray.rows), camera);
+}
+
+std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rect& roi_in,
+                                              const CameraModel* camera) {
   if (gray.empty() || gray.type() != CV_8UC1) {
     throw InputError("detector: expected a non-empty 8-bit greyscale image");
   }
   Impl& d = *impl_;
   const auto& o = d.options;
-  const int s = o.detect_scale;
-
-  // 1. Downscale.
-  const cv::Mat* work = &gray;
-  if (s > 1) {
-    cv::resize(gray, d.small, cv::Size(gray.cols / s, gray.rows / s), 0, 0, cv::INTER_AREA);
-    work = &d.small;
-  }
-  d.params->minMarkerPerimeterRate =
-      o.min_perimeter_px / s / static_cast<double>(std::max(work->cols, work->rows));
-
-  // 2. Detect: windows given as an arithmetic sequence become one OpenCV call.
+  const cv::Rect roi = roi_in & cv::Rect(0, 0, gray.cols, gray.rows);
   std::vector<MarkerDetection> out;
-  std::vector<int> windows = o.threshold_windows;
-  bool arithmetic = windows.size() <= 2;
-  for (std::size_t i = 2; i < windows.size(); ++i) {
-    arithmetic = arithmetic && windows[i] - windows[i - 1] == windows[1] - windows[0];
-  }
-  if (arithmetic) {
-    d.params->adaptiveThreshWinSizeMin = windows.front();
-    d.params->adaptiveThreshWinSizeMax = windows.back();
-    d.params->adaptiveThreshWinSizeStep =
-        windows.size() > 1 ? std::max(1, windows[1] - windows[0]) : 1;
-    d.corners.clear();
-    d.ids.clear();
-    cv::aruco::detectMarkers(*work, d.dictionary, d.corners, d.ids, d.params);
-  } else {
-    std::vector<std::vector<cv::Point2f>> all_corners;
-    std::vector<int> all_ids;
-    for (int w : windows) {
-      d.params->adaptiveThreshWinSizeMin = w;
-      d.params->adaptiveThreshWinSizeMax = w;
-      d.params->adaptiveThreshWinSizeStep = 1;
-      d.corners.clear();
-      d.ids.clear();
-      cv::aruco::detectMarkers(*work, d.dictionary, d.corners, d.ids, d.params);
-      for (std::size_t i = 0; i < d.ids.size(); ++i) {
-        bool dup = false;
-        for (std::size_t j = 0; j < all_ids.size(); ++j) {
-          dup = dup ||
-                (all_ids[j] == d.ids[i] && cv::norm(all_corners[j][0] - d.corners[i][0]) < 3.0);
-        }
-        if (!dup) {
-          all_ids.push_back(d.ids[i]);
-          all_corners.push_back(d.corners[i]);
-        }
+  if (roi.width < 8 || roi.height < 8) return out;
+  const DetectionPlan plan = plan_detection(o, gray.size());
+  const int cells = d.dictionary->markerSize + 2;
+
+  // 1-2. Candidate squares in the region, corners at full resolution: decoded ones with their
+  // id, the others (id -1) read again below.
+  d.candidates.clear();
+  d.search.run(gray(roi), roi.tl(), plan.scale, plan.min_marker_px,
+               plan.full_resolution_pass ? kMinCoarseMarkerPx * plan.scale : 0.0, d.candidates);
+  for (auto& c : d.candidates) {
+    if (c.id >= 0) continue;
+    bool contrasted = false;
+    c.id = detail::decode_marker(gray, c.corners, *d.dictionary, d.check, &contrasted);
+    // Coarse corners of a small square can be a third of a cell off: a square with a
+    // marker's contrast is refined and read once more.
+    if (c.id < 0 && contrasted && o.refinement == CornerRefinement::kEdges) {
+      std::array<Point2, 4> r = c.corners;
+      if (detail::refine_corners_by_edges(gray, r, cells, camera)) {
+        c.id = detail::decode_marker(gray, r, *d.dictionary, d.check);
+        if (c.id >= 0) c.corners = r;
       }
     }
-    d.corners = std::move(all_corners);
-    d.ids = std::move(all_ids);
+  }
+  detail::drop_duplicates(d.candidates);
+  out.reserve(d.candidates.size());
+  std::vector<bool> reread;  // decoded by us: read again with the refined corners
+  for (const auto& c : d.candidates) {
+    if (c.id < 0) continue;
+    out.push_back({c.id, c.corners});
+    reread.push_back(c.decoded_at_full_resolution);
   }
 
-  // 3. Back to full resolution (a pixel centre x at scale s is s*x + (s-1)/2 at full
-  // scale) and refine there.
-  out.reserve(d.ids.size());
-  for (std::size_t i = 0; i < d.ids.size(); ++i) {
-    MarkerDetection m;
-    m.id = d.ids[i];
-    for (std::size_t k = 0; k < 4; ++k) {
-      const cv::Point2f& c = d.corners[i][k];
-      m.corners_px[k] = {c.x * s + (s - 1) * 0.5, c.y * s + (s - 1) * 0.5};
-    }
-    out.push_back(m);
-  }
-  const int cells = d.dictionary->markerSize + 2;
+  // 3. Refine at full resolution.
   d.refine.clear();
   std::vector<std::size_t> subpix;  // markers refined with cornerSubPix
   for (std::size_t i = 0; o.refinement != CornerRefinement::kNone && i < out.size(); ++i) {
@@ -197,14 +194,23 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraM
       }
     }
   }
-  // 4. Verify: every cell must read clearly black or white.
-  if (o.max_ambiguous_cells >= 0) {
-    std::erase_if(out, [&](const MarkerDetection& m) {
-      return detail::count_ambiguous_cells(gray, m.corners_px, cells, o.cell_ambiguity,
-                                           o.min_contrast) > o.max_ambiguous_cells;
-    });
+  // 4. Verify: a marker we decoded from coarse corners must read the same with the refined
+  // ones, and every marker's cells must leave no doubt about its code.
+  std::vector<MarkerDetection> kept;
+  kept.reserve(out.size());
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    if (reread[i]) {
+      std::array<Point2, 4> c = out[i].corners_px;
+      if (detail::decode_marker(gray, c, *d.dictionary, d.check) != out[i].id ||
+          c[0].x != out[i].corners_px[0].x || c[0].y != out[i].corners_px[0].y)
+        continue;
+    }
+    if (o.max_ambiguous_cells >= 0 &&
+        !detail::verify_marker(gray, out[i].corners_px, out[i].id, *d.codes, d.check))
+      continue;
+    kept.push_back(out[i]);
   }
-  return out;
+  return kept;
 }
 
 }  // namespace ips

@@ -1,4 +1,5 @@
 // `ips locate`: detect the markers in one image and print their camera coordinates.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -64,7 +65,23 @@ int run_locate(const LocateArgs& a) {
     sizes = parse_sizes(a);
     options.dictionary = a.dictionary;
   }
-  const ips::CameraModel camera = ips::CameraModel::load(a.intrinsics);
+  const cv::Mat gray = ips::cli::read_gray_image(a.image);
+  // Without intrinsics, a generic pinhole guess (focal length = the larger image side, ~53 deg
+  // across it; principal point at the centre; no distortion): ids and pixel corners do not
+  // depend on it, camera coordinates are only rough.
+  const bool guessed = a.intrinsics.empty();
+  const ips::CameraModel camera =
+      guessed ? ips::CameraModel(ips::CameraModel::Kind::kPinhole, gray.size(),
+                                 cv::Matx33d(std::max(gray.cols, gray.rows), 0, (gray.cols - 1) / 2.0, 0,
+                                             std::max(gray.cols, gray.rows), (gray.rows - 1) / 2.0, 0, 0, 1),
+                                 {0.0, 0.0, 0.0, 0.0})
+              : ips::CameraModel::load(a.intrinsics);
+  if (guessed) {
+    std::fprintf(stderr,
+                 "ips locate: no --intrinsics: assuming a pinhole camera with f = %d px and no "
+                 "distortion; ids and pixel corners are exact, camera coordinates are rough\n",
+                 std::max(gray.cols, gray.rows));
+  }
   ips::ModelSet models;
   const ips::Mapper* mapper = nullptr;
   if (!a.model.empty()) {
@@ -78,14 +95,14 @@ int run_locate(const LocateArgs& a) {
     throw ips::InputError("--camera is only used with --model");
   }
   ips::Detector detector(options);
-  const cv::Mat gray = ips::cli::read_gray_image(a.image);
   if (gray.size() != camera.size()) {
     throw ips::InputError(a.image + ": image is " + std::to_string(gray.cols) + "x" +
                           std::to_string(gray.rows) + " but the intrinsics " + a.intrinsics +
                           " are for " + std::to_string(camera.size().width) + "x" +
                           std::to_string(camera.size().height));
   }
-  const auto found = detector.detect(gray, &camera);
+  // A guessed model would bend the fitted edges wrongly: refine in pixels then.
+  const auto found = detector.detect(gray, guessed ? nullptr : &camera);
   nlohmann::json markers = nlohmann::json::array();
   if (!a.json) std::printf("%zu marker(s) in %s\n", found.size(), a.image.c_str());
   for (const auto& d : found) {
@@ -112,7 +129,12 @@ int run_locate(const LocateArgs& a) {
       std::printf("\n");
     }
   }
-  if (a.json) std::printf("%s\n", nlohmann::json{{"markers", markers}}.dump().c_str());
+  if (a.json) {
+    std::printf("%s\n",
+                nlohmann::json{{"markers", markers}, {"intrinsics", guessed ? "guessed" : a.intrinsics}}
+                    .dump()
+                    .c_str());
+  }
   return 0;
 }
 
@@ -122,8 +144,8 @@ IPS_REGISTER_COMMAND(
       auto a = std::make_shared<LocateArgs>();
       sub.add_option("--image", a->image, "Image file (JPEG, PNG, ...)")->required();
       sub.add_option("--intrinsics", a->intrinsics,
-                     "Camera intrinsics (ipsd YAML or OpenCV calibration file)")
-          ->required();
+                     "Camera intrinsics (ipsd YAML or OpenCV calibration file); without it a "
+                     "generic pinhole guess (ids and pixel corners exact, coordinates rough)");
       auto* length = sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")
                          ->capture_default_str();
       auto* size = sub.add_option("--marker-size", a->marker_sizes,

@@ -94,6 +94,7 @@ detection:
   max_border_error_rate: 0.2
   max_ambiguous_cells: -1
   cell_ambiguity: 0.25
+  min_clear_margin: 4
   min_contrast: 40
   refinement: subpix
   refine_half_window_px: 3
@@ -103,12 +104,13 @@ detection:
   EXPECT_EQ(d.detect_scale, 1);
   EXPECT_EQ(d.threshold_windows, (std::vector<int>{9, 19}));
   EXPECT_DOUBLE_EQ(d.threshold_constant, 10);
-  EXPECT_DOUBLE_EQ(d.min_perimeter_px, 80);
+  EXPECT_DOUBLE_EQ(d.min_marker_px, 20);  // min_perimeter_px, the older form: 4 sides
   EXPECT_DOUBLE_EQ(d.max_perimeter_rate, 2);
   EXPECT_DOUBLE_EQ(d.error_correction_rate, 0.3);
   EXPECT_DOUBLE_EQ(d.max_border_error_rate, 0.2);
   EXPECT_EQ(d.max_ambiguous_cells, -1);
   EXPECT_DOUBLE_EQ(d.cell_ambiguity, 0.25);
+  EXPECT_EQ(d.min_clear_margin, 4);
   EXPECT_DOUBLE_EQ(d.min_contrast, 40);
   EXPECT_EQ(d.refinement, CornerRefinement::kSubPix);
   EXPECT_EQ(d.refine_half_window_px, 3);
@@ -122,7 +124,10 @@ TEST_F(ConfigTest, BadDetectionSettingsAndDictionaryNamesAreRefusedWithTheirPlac
   expect_error(m + "detection: {threshold_windows: [9, 10]}\n", {"ipsd.yaml:7:", "detection.threshold_windows[1]: window sizes must be odd"});
   expect_error(m + "detection: {threshold_windows: []}\n", {"detection.threshold_windows: expected a non-empty list"});
   expect_error(m + "detection: {threshold_windows: 9}\n", {"detection.threshold_windows: expected a non-empty list"});
-  expect_error(m + "detection: {detect_scale: 0}\n", {"detection.detect_scale: must be 1..8"});
+  expect_error(m + "detection: {detect_scale: 9}\n", {"detection.detect_scale: must be 0..8"});
+  expect_error(m + "detection: {min_marker_px: -1}\n", {"ipsd.yaml:7:", "detection.min_marker_px: must be 0..100000"});
+  expect_error(m + "detection: {min_marker_px: 20, min_perimeter_px: 80}\n", {"detection.min_perimeter_px: give min_marker_px only"});
+  expect_error(m + "detection: {min_clear_margin: 0}\n", {"detection.min_clear_margin: must be 1..64"});
   expect_error(m + "detection: {refinement: cornersubpix}\n", {"detection.refinement: unknown value 'cornersubpix' (edges|subpix|none)"});
   expect_error(m + "detection: {min_perimeter_px: -5}\n", {"detection.min_perimeter_px: must be > 0"});
   expect_error(m + "detection: {error_correction_rate: 1.5}\n", {"detection.error_correction_rate: must be 0..1"});
