@@ -12,6 +12,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "plane_sampling.h"
+
 namespace ips::sim {
 namespace {
 
@@ -162,18 +164,9 @@ void BoardRenderer::render(const BoardPose& pose, const BoardLook& look, cv::Mat
       double sum = 0.0;
       for (int sy = 0; sy < S; ++sy) {
         const double fy = y + (sy + 0.5) / S - 0.5;
-        const int iy = std::clamp(static_cast<int>(std::floor(fy)), 0, bh - 2);
-        const double ty = fy - iy;
-        const auto* r0 = ab.ptr<cv::Vec2f>(iy);
-        const auto* r1 = ab.ptr<cv::Vec2f>(iy + 1);
         for (int sx = 0; sx < S; ++sx) {
-          const double fx = x + (sx + 0.5) / S - 0.5;
-          const int ix = std::clamp(static_cast<int>(std::floor(fx)), 0, bw - 2);
-          const double tx = fx - ix;
-          const double a = (1 - ty) * ((1 - tx) * r0[ix][0] + tx * r0[ix + 1][0]) +
-                           ty * ((1 - tx) * r1[ix][0] + tx * r1[ix + 1][0]);
-          const double b = (1 - ty) * ((1 - tx) * r0[ix][1] + tx * r0[ix + 1][1]) +
-                           ty * ((1 - tx) * r1[ix][1] + tx * r1[ix + 1][1]);
+          const cv::Vec2d ab_at = plane_coords_at(ab, x + (sx + 0.5) / S - 0.5, fy);
+          const double a = ab_at[0], b = ab_at[1];
           int g = 0;
           sum += value(sample(a, b, g), a, b, x);
         }

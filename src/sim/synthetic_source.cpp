@@ -32,6 +32,9 @@ void SyntheticSource::open() {
   delivered_ = 0;
   open_ = true;
   if (options_.render_ahead && options_.realtime) {
+    external_state_ = false;
+    for (const auto& m : scene_->markers)
+      if (m.trajectory.kind == Trajectory::Kind::kPlacements) external_state_ = true;
     delay_ns_ = options_.transport_delay_ns >= 0 ? options_.transport_delay_ns : std::llround(1e9 / options_.fps);
     stop_render_ = false;
     ready_.clear();
@@ -64,6 +67,15 @@ void SyntheticSource::render_loop() {
       std::unique_lock lock(mutex_);
       cv_.wait(lock, [this] { return stop_render_ || ready_.size() < kAhead; });
       if (stop_render_) return;
+      // A hand-placed marker (a placements control file) is outside state, read when the frame
+      // is rendered: such a frame must not be rendered before it is captured, or it would show
+      // where the marker was before the hand moved it.
+      if (external_state_) {
+        const std::int64_t capture = frame_time_ns(k);
+        for (std::int64_t now = monotonic_ns(); !stop_render_ && now < capture; now = monotonic_ns())
+          cv_.wait_for(lock, std::chrono::nanoseconds(capture - now));
+        if (stop_render_) return;
+      }
     }
     // Behind schedule: skip to the newest frame already due for delivery (a camera drops the rest).
     const std::int64_t now = monotonic_ns();

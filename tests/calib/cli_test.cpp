@@ -1,5 +1,7 @@
 // `ips board`, `ips sim board-views` and `ips calibrate` (offline and live) run as a user would.
 #include <array>
+#include <unistd.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -43,8 +45,9 @@ std::string numbered(const char* pattern, int i) {
   return buf;
 }
 
+// Per process: ctest runs these tests as parallel processes, each making its own views.
 fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("ips_calib_cli_" + name);
+  const fs::path d = fs::temp_directory_path() / ("ips_calib_cli_" + std::to_string(::getpid()) + "_" + name);
   fs::remove_all(d);
   fs::create_directories(d);
   return d;

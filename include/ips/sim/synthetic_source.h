@@ -20,6 +20,9 @@
 // `transport_delay_ns` (like MJPEG arriving over USB one frame period after the exposure) and
 // decodes it there, as a USB camera's reader does. So a reader's cost is the decode, not the
 // renderer. Frame::t_delivered_ns is the hand-over time (later than due if rendering fell behind).
+// A scene with a hand-placed marker (`placements` trajectory: outside state, read when the
+// frame is rendered) renders each frame no earlier than its capture time instead, so a frame
+// never shows the marker where it lay before it was moved.
 #pragma once
 
 #include <chrono>
@@ -87,6 +90,7 @@ class SyntheticSource : public FrameSource {
   ReadStatus read_ahead(Frame& out, std::chrono::milliseconds timeout);
 
   static constexpr std::size_t kAhead = 2;  ///< frames rendered ahead at most
+  bool external_state_ = false;  ///< the scene has a hand-placed marker: render at capture time, not before
   struct Rendered {
     std::uint64_t k = 0;
     std::vector<std::uint8_t> jpeg;  ///< or, with jpeg_quality 0:
