@@ -12,6 +12,10 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
   libsystemd-dev                           # sd_notify
   linux-libc-dev                           # V4L2 headers
+  libceres-dev                             # bundle adjustment for ips survey (camera poses)
+  cyclonedds-dev cyclonedds-tools          # ROS 2-compatible DDS output (C API + idlc)
+  libcivetweb-dev                          # HTTP + WebSocket server for the web view
+  chromium                                 # headless browser for the web view's tests
   libgtest-dev libgmock-dev libbenchmark-dev
   python3
 )
