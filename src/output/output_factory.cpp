@@ -1,0 +1,17 @@
+// The one place that maps an output type from the config to its implementation.
+#include "ips/output_sink.h"
+#include "udp_sink.h"
+
+namespace ips {
+
+std::unique_ptr<OutputSink> make_output_sink(const OutputConfig& config, int index) {
+  const std::string where = "outputs[" + std::to_string(index) + "]";
+  switch (config.kind) {
+    case OutputConfig::Kind::kUnicast:
+    case OutputConfig::Kind::kBroadcast:
+    case OutputConfig::Kind::kMulticast: return std::make_unique<UdpSink>(config, where);
+  }
+  throw InputError(where + ".type: not an output type this build can open");
+}
+
+}  // namespace ips
