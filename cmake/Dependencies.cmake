@@ -17,3 +17,7 @@ target_include_directories(ips_deps SYSTEM INTERFACE ${OpenCV_INCLUDE_DIRS})
 target_link_libraries(ips_deps INTERFACE
   ${OpenCV_LIBS} Eigen3::Eigen ${NLOPT_LIBRARIES} yaml-cpp nlohmann_json::nlohmann_json
   CLI11::CLI11 spdlog::spdlog PkgConfig::TURBOJPEG PkgConfig::SYSTEMD Threads::Threads)
+
+# HMAC-SHA256 and a CSPRNG for the subscriptions output (cookies, pre-shared key).
+pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET libsodium)
+target_link_libraries(ips_deps INTERFACE PkgConfig::SODIUM)

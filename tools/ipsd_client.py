@@ -7,8 +7,16 @@ form, and prints one line per marker. Use it as a starting point for a robot's o
     python3 tools/ipsd_client.py --port 5005              # unicast/broadcast
     python3 tools/ipsd_client.py --group 239.255.42.1 --port 5006
     python3 tools/ipsd_client.py --port 5005 --count 10   # stop after 10 datagrams
+    python3 tools/ipsd_client.py --subscribe 192.168.1.10:5010 --ids 3,7   # unicast subscription
+    python3 tools/ipsd_client.py --subscribe 192.168.1.10:5010 --psk "lab key"
+
+--subscribe asks a daemon's `subscriptions` output for a unicast stream to this client's own
+address (request, cookie echo, renewal at a third of the lease, unsubscribe at the end; the
+layout is in include/ips/wire.h, "Unicast subscriptions").
 """
 import argparse
+import hashlib
+import hmac
 import json
 import math
 import socket
@@ -22,6 +30,67 @@ FLAG_VELOCITY = 0x0001
 HEADER = struct.Struct("<4sHHIHHBBHIqqq")  # 48 bytes, little-endian
 RECORD = struct.Struct("<IIffffffi")        # 36 bytes
 VELOCITY = struct.Struct("<fff")            # +12 bytes when FLAG_VELOCITY
+
+
+SUB_REQUEST = struct.Struct("<4sBBBBHH16s")  # 28 bytes, then ids (u32 each), then the HMAC
+SUB_REPLY = struct.Struct("<4sBBHHH16s")      # 28 bytes
+SUB_CHALLENGE, SUB_ACCEPTED, SUB_REFUSED_FULL, SUB_UNSUBSCRIBED = 1, 2, 3, 4
+
+
+def sub_request(ids, fmt, lease_s, cookie, psk, unsubscribe=False) -> bytes:
+    """A subscription request (include/ips/wire.h): op 1 subscribe/renew, 2 unsubscribe."""
+    body = SUB_REQUEST.pack(b"IPSQ", 1, 2 if unsubscribe else 1, 1 if fmt == "json" else 0,
+                            0 if ids else 1, lease_s, len(ids), cookie)
+    body += b"".join(struct.pack("<I", i) for i in ids)
+    if psk:
+        body += hmac.new(psk.encode(), body, hashlib.sha256).digest()
+    return body
+
+
+def sub_reply(data: bytes):
+    """(status, lease_s, cookie) of a daemon reply, or None for anything else (stream data)."""
+    if len(data) != SUB_REPLY.size or data[:4] != b"IPSA":
+        return None
+    _magic, version, status, _r0, lease, _r1, cookie = SUB_REPLY.unpack(data)
+    return (status, lease, cookie) if version == 1 else None
+
+
+class Subscription:
+    """The robot's side of the exchange: call due() often, reply() on every datagram."""
+
+    def __init__(self, sock, daemon, ids, fmt, lease_s, psk):
+        self.sock, self.daemon, self.ids, self.fmt = sock, daemon, ids, fmt
+        self.lease_s, self.psk = lease_s, psk
+        self.cookie = bytes(16)
+        self.next_send = 0.0
+        self.subscribed = False
+
+    def due(self):
+        now = time.monotonic()
+        if now >= self.next_send:
+            self.next_send = now + 1.0  # resend if nothing answers
+            self.sock.sendto(sub_request(self.ids, self.fmt, self.lease_s, self.cookie, self.psk), self.daemon)
+
+    def reply(self, data) -> bool:
+        r = sub_reply(data)
+        if r is None:
+            return False
+        status, lease, cookie = r
+        if status == SUB_CHALLENGE:
+            self.cookie, self.next_send = cookie, 0.0  # echo it at once
+        elif status == SUB_ACCEPTED:
+            if not self.subscribed:
+                print(f"subscribed (lease {lease} s)", file=sys.stderr)
+            self.cookie, self.subscribed = cookie, True
+            self.next_send = time.monotonic() + max(0.5, lease / 3)
+        elif status == SUB_REFUSED_FULL:
+            print("warning: the daemon has max_subscribers; retrying in 5 s", file=sys.stderr)
+            self.next_send = time.monotonic() + 5.0
+        return True
+
+    def close(self):
+        if self.subscribed:
+            self.sock.sendto(sub_request(self.ids, self.fmt, self.lease_s, self.cookie, self.psk, True), self.daemon)
 
 
 class Malformed(ValueError):
@@ -76,11 +145,24 @@ def main() -> int:
     ap.add_argument("--port", type=int, default=5005)
     ap.add_argument("--group", help="multicast group to join")
     ap.add_argument("--count", type=int, default=0, help="stop after N valid datagrams")
+    ap.add_argument("--subscribe", metavar="HOST:PORT", help="ask a daemon's subscriptions output for a stream")
+    ap.add_argument("--ids", default="", help="with --subscribe: comma-separated marker ids (default all)")
+    ap.add_argument("--format", choices=("binary", "json"), default="binary", help="with --subscribe")
+    ap.add_argument("--lease", type=int, default=30, help="with --subscribe: lease seconds")
+    ap.add_argument("--psk", default="", help="with --subscribe: the output's pre-shared key")
     args = ap.parse_args()
 
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    sock.bind(("0.0.0.0" if args.group else args.bind, args.port))
+    sub = None
+    if args.subscribe:
+        host, _, port = args.subscribe.rpartition(":")
+        sock.bind((args.bind, 0))  # any free port: the daemon streams to where we asked from
+        ids = [int(i) for i in args.ids.split(",") if i]
+        sub = Subscription(sock, (socket.gethostbyname(host), int(port)), ids, args.format, args.lease, args.psk)
+        sock.settimeout(0.2)
+    else:
+        sock.bind(("0.0.0.0" if args.group else args.bind, args.port))
     if args.group:
         mreq = struct.pack("4s4s", socket.inet_aton(args.group), socket.inet_aton("0.0.0.0"))
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, mreq)
@@ -88,7 +170,16 @@ def main() -> int:
     valid = malformed = 0
     try:
         while args.count == 0 or valid < args.count:
-            data, _ = sock.recvfrom(65536)
+            if sub:
+                sub.due()
+                try:
+                    data, _ = sock.recvfrom(65536)
+                except socket.timeout:
+                    continue
+                if sub.reply(data):
+                    continue
+            else:
+                data, _ = sock.recvfrom(65536)
             try:
                 d = decode(data)
             except Malformed as e:
@@ -106,6 +197,8 @@ def main() -> int:
                 print(line, flush=True)
     except KeyboardInterrupt:
         pass
+    if sub:
+        sub.close()
     print(f"{valid} datagrams, {malformed} malformed", file=sys.stderr)
     return 0
 

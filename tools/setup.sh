@@ -15,6 +15,7 @@ PACKAGES=(
   libceres-dev                             # bundle adjustment for ips survey (camera poses)
   cyclonedds-dev cyclonedds-tools          # ROS 2-compatible DDS output (C API + idlc)
   libcivetweb-dev                          # HTTP + WebSocket server for the web view
+  libsodium-dev                            # HMAC-SHA256 + CSPRNG for the subscriptions output
   chromium                                 # headless browser for the web view's tests
   libgtest-dev libgmock-dev libbenchmark-dev
   python3
@@ -35,4 +36,19 @@ if [ "${#missing[@]}" -gt 0 ]; then
   $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 else
   echo "setup: all packages present"
+fi
+
+# The MAVLink output's tests decode frames with an independent implementation (node-mavlink),
+# pinned by tests/output/mavlink_decoder/package-lock.json. Debian's nodejs/npm only where no
+# npm is installed (a NodeSource nodejs already carries its own npm).
+if ! command -v npm >/dev/null 2>&1; then
+  echo "setup: installing nodejs npm"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends nodejs npm
+fi
+decoder="$(cd "$(dirname "$0")/.." && pwd)/tests/output/mavlink_decoder"
+if [ ! -f "$decoder/node_modules/node-mavlink/package.json" ] || [ "$decoder/package-lock.json" -nt "$decoder/node_modules" ]; then
+  echo "setup: npm ci in tests/output/mavlink_decoder"
+  npm ci --prefix "$decoder" --no-audit --no-fund --loglevel=error
 fi

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "ips/config.h"
 #include "ips/packet_codec.h"
@@ -17,6 +19,8 @@ struct OutputStats {
   std::uint64_t datagrams = 0;    ///< sent successfully (datagrams, frames or samples)
   std::uint64_t bytes = 0;
   std::uint64_t send_errors = 0;  ///< failed sends (EAGAIN, unreachable, ...): data lost
+  /// Type-specific counters shown by the status, in order ({"subscribers", 2}, {"refused_subnet", 5}, ...).
+  std::vector<std::pair<std::string, std::uint64_t>> counters;
 };
 
 class OutputSink {

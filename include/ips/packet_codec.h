@@ -2,6 +2,7 @@
 // Encoding writes every field with explicit little-endian byte order (never a host struct).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -25,6 +26,9 @@ struct MarkerRecord {
   double spread = 0;              ///< max distance of a camera's estimate from the fused one, m
   std::int32_t dt_us = 0;         ///< marker capture time - header capture time, microseconds
   double vx = 0, vy = 0, vz = 0;  ///< velocity, m/s (only meaningful if the datagram has_velocity)
+  /// Position covariance (the fusion's), m^2, upper triangle xx xy xz yy yz zz; all 0 = unknown.
+  /// Not on the v1 wire (binary or JSON): for outputs that carry it (MAVLink, ROS 2).
+  std::array<double, 6> covariance{};
 };
 
 /// One datagram's content (either format).

@@ -247,6 +247,59 @@ static inline void ips_wire_read_marker(const uint8_t* buf, const struct ips_wir
   }
 }
 
+/* ---- Unicast subscriptions (output `type: subscriptions`) ----
+ *
+ * A robot (e.g. on Wi-Fi, where multicast is slow and lossy) asks the daemon's subscription
+ * port for its own unicast copy of the stream above. Every field little-endian.
+ *
+ * Request, robot -> daemon: IPS_SUB_REQUEST_HEADER + 4 * id_count bytes, then (only when the
+ * daemon has a pre-shared key) IPS_SUB_MAC_SIZE bytes of HMAC-SHA256(key, every byte before it).
+ *   off size type   field
+ *     0    4 u8[4]  magic: 'I' 'P' 'S' 'Q'
+ *     4    1 u8     version: 1
+ *     5    1 u8     op: IPS_SUB_OP_SUBSCRIBE (also renews) | IPS_SUB_OP_UNSUBSCRIBE
+ *     6    1 u8     format: 0 = binary datagrams, 1 = JSON datagrams
+ *     7    1 u8     flags: bit 0 = IPS_SUB_FLAG_ALL (every marker; id_count must be 0)
+ *     8    2 u16    lease_s: seconds the stream should last (>= 1; the daemon may shorten it)
+ *    10    2 u16    id_count: marker ids that follow (1..IPS_SUB_MAX_IDS without FLAG_ALL)
+ *    12   16 u8[16] cookie: all zero in a first request, else the cookie of the daemon's last reply
+ *    28  4*n u32    ids
+ *
+ * Reply, daemon -> robot: IPS_SUB_REPLY_SIZE bytes, never more than the smallest request, so
+ * the daemon cannot amplify traffic towards a forged source address.
+ *     0    4 u8[4]  magic: 'I' 'P' 'S' 'A'
+ *     4    1 u8     version: 1
+ *     5    1 u8     status: IPS_SUB_CHALLENGE | IPS_SUB_ACCEPTED | IPS_SUB_REFUSED_FULL | IPS_SUB_UNSUBSCRIBED
+ *     6    2 u16    reserved, 0
+ *     8    2 u16    lease_s: the lease granted (ACCEPTED), else 0
+ *    10    2 u16    reserved, 0
+ *    12   16 u8[16] cookie: to echo in the next request
+ *
+ * Exchange: a request without a valid cookie gets a CHALLENGE (and nothing else); the same
+ * request with that cookie gets ACCEPTED and the stream, sent from the subscription port to the
+ * request's source address and port, numbered per subscriber, until the lease ends. Renew
+ * before that with the same request and the cookie of the last reply (ACCEPTED carries a fresh
+ * one). A cookie is a keyed hash of the source address and port under a daemon secret that
+ * changes every 30 s; it is accepted for 30-60 s, then the daemon challenges again. Requests
+ * from outside the allowed subnets, malformed ones and ones with a wrong HMAC get no answer;
+ * the daemon counts every refusal in its status.
+ */
+#define IPS_SUB_MAGIC_REQUEST "IPSQ"
+#define IPS_SUB_MAGIC_REPLY "IPSA"
+#define IPS_SUB_VERSION 1u
+#define IPS_SUB_REQUEST_HEADER 28u
+#define IPS_SUB_REPLY_SIZE 28u
+#define IPS_SUB_COOKIE_SIZE 16u
+#define IPS_SUB_MAC_SIZE 32u
+#define IPS_SUB_MAX_IDS 64u
+#define IPS_SUB_OP_SUBSCRIBE 1u
+#define IPS_SUB_OP_UNSUBSCRIBE 2u
+#define IPS_SUB_FLAG_ALL 0x01u
+#define IPS_SUB_CHALLENGE 1u
+#define IPS_SUB_ACCEPTED 2u
+#define IPS_SUB_REFUSED_FULL 3u
+#define IPS_SUB_UNSUBSCRIBED 4u
+
 #ifdef __cplusplus
 }
 #endif

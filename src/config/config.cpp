@@ -39,9 +39,14 @@ double MarkerConfig::height_of(int id) const {
 }
 
 std::string OutputConfig::describe() const {
+  const std::string where = address + ":" + std::to_string(port);
+  switch (kind) {
+    case Kind::kMavlink: return "mavlink " + where + " (" + std::to_string(mavlink.vehicles.size()) + " vehicle(s))";
+    case Kind::kSubscriptions: return "subscriptions on " + where;
+    default: break;
+  }
   const char* kinds[] = {"unicast", "broadcast", "multicast"};
-  return std::string(kinds[static_cast<int>(kind)]) + " " + address + ":" + std::to_string(port) + " (" +
-         to_string(format) + ")";
+  return std::string(kinds[static_cast<int>(kind)]) + " " + where + " (" + to_string(format) + ")";
 }
 
 namespace {
@@ -277,6 +282,9 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
     const YAML::Node outputs = r.node("outputs");
     if (!outputs.IsSequence()) r.fail(outputs, "outputs", "expected a list of outputs");
     for (std::size_t i = 0; i < outputs.size(); ++i) c.outputs.push_back(parse_output(outputs[i], static_cast<int>(i), file));
+    // A MAVLink track restarts when the fusion's Kalman filter would (unless set explicitly).
+    for (OutputConfig& o : c.outputs)
+      if (std::isnan(o.mavlink.track_gap_s)) o.mavlink.track_gap_s = c.fusion.kalman_options.reset_after_s;
   }
 
   if (r.has("logging")) {

@@ -134,5 +134,9 @@ inline Enum pick(MapReader& r, const std::string& k, const std::vector<std::pair
 
 /// outputs[index]: one output of any type (src/config/parse_output.cpp).
 OutputConfig parse_output(const YAML::Node& n, int index, const std::string& file);
+/// The type-specific keys of a mavlink output (src/config/parse_output_mavlink.cpp).
+void parse_mavlink_output(MapReader& r, const YAML::Node& n, OutputConfig& o, const std::string& file);
+/// The type-specific keys of a subscriptions output (src/config/parse_output_subscriptions.cpp).
+void parse_subscriptions_output(MapReader& r, const YAML::Node& n, OutputConfig& o);
 
 }  // namespace ips::config_detail

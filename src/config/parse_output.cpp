@@ -34,12 +34,16 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
   o.kind = pick<OutputConfig::Kind>(r, "type",
                                     {{"unicast", OutputConfig::Kind::kUnicast},
                                      {"broadcast", OutputConfig::Kind::kBroadcast},
-                                     {"multicast", OutputConfig::Kind::kMulticast}},
+                                     {"multicast", OutputConfig::Kind::kMulticast},
+                                     {"mavlink", OutputConfig::Kind::kMavlink},
+                                     {"subscriptions", OutputConfig::Kind::kSubscriptions}},
                                     o.kind, true);
   switch (o.kind) {
     case OutputConfig::Kind::kUnicast:
     case OutputConfig::Kind::kBroadcast:
     case OutputConfig::Kind::kMulticast: parse_udp_output(r, n, o); break;
+    case OutputConfig::Kind::kMavlink: parse_mavlink_output(r, n, o, file); break;
+    case OutputConfig::Kind::kSubscriptions: parse_subscriptions_output(r, n, o); break;
   }
   r.finish();
   return o;

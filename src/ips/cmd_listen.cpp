@@ -1,5 +1,7 @@
 // `ips listen`: receive the position stream (binary or JSON, detected per datagram), print
 // live positions with rate and age per marker; malformed datagrams are counted and warned about.
+// With --subscribe, asks a daemon's `subscriptions` output for a unicast stream to this socket
+// (cookie exchange, renewals, unsubscribe at the end: include/ips/wire.h).
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -14,11 +16,13 @@
 #include <deque>
 #include <map>
 #include <numbers>
+#include <optional>
 
 #include "command.h"
 #include "ips/clock.h"
 #include "ips/error.h"
 #include "ips/packet_codec.h"
+#include "ips/subscription.h"
 
 namespace {
 
@@ -33,6 +37,12 @@ struct ListenOptions {
   double interval_s = 1.0; // table refresh period
   long count = 0;          // stop after this many valid datagrams (0 = never)
   double duration_s = 0;   // stop after this many seconds (0 = never)
+  std::string subscribe;   // daemon ADDR:PORT of a subscriptions output; "" = just listen
+  std::vector<std::uint32_t> ids;  // with --subscribe: wanted marker ids (none = all)
+  std::string format = "binary";   // with --subscribe: the stream's format
+  int lease_s = 30;                // with --subscribe: requested lease
+  std::string psk;                 // with --subscribe: the output's pre-shared key
+  bool bind_given = false;
 };
 
 sockaddr_in parse_endpoint(const std::string& text, const char* option) {
@@ -90,12 +100,32 @@ struct MarkerView {
   std::deque<std::int64_t> arrivals;  // monotonic ns of the last second's updates
 };
 
-int run_listen(const ListenOptions& o) {
+int run_listen(ListenOptions o) {
+  std::optional<ips::subscription::Client> client;
+  sockaddr_in daemon{};
+  if (!o.subscribe.empty()) {
+    daemon = parse_endpoint(o.subscribe, "--subscribe");
+    if (!o.group.empty()) throw ips::InputError("--subscribe: cannot be combined with --group");
+    if (!o.bind_given) o.bind = "0.0.0.0:0";  // any free port: the daemon streams to where we asked from
+    ips::subscription::Request r;
+    r.format = ips::parse_wire_format(o.format, "--format");
+    r.all = o.ids.empty();
+    r.ids = o.ids;
+    if (o.ids.size() > IPS_SUB_MAX_IDS) throw ips::InputError("--ids: at most " + std::to_string(IPS_SUB_MAX_IDS) + " ids");
+    if (o.lease_s < 1 || o.lease_s > 65535) throw ips::InputError("--lease: must be 1..65535 s");
+    r.lease_s = static_cast<std::uint16_t>(o.lease_s);
+    client.emplace(r, o.psk);
+  }
   const int fd = open_socket(o);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  std::fprintf(stderr, "ips listen: %s %s (Ctrl-C to stop)\n", o.group.empty() ? "listening on" : "joined",
-               (o.group.empty() ? o.bind : o.group).c_str());
+  std::fprintf(stderr, "ips listen: %s %s (Ctrl-C to stop)\n",
+               client ? "subscribing at" : (o.group.empty() ? "listening on" : "joined"),
+               (client ? o.subscribe : o.group.empty() ? o.bind : o.group).c_str());
+  auto send_to_daemon = [&](const std::vector<std::uint8_t>& b) {
+    ::sendto(fd, b.data(), b.size(), MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&daemon), sizeof daemon);
+  };
+  auto last_state = ips::subscription::Client::State::kWaiting;
 
   std::uint64_t valid = 0, malformed = 0, lost = 0;
   bool have_seq = false;
@@ -126,6 +156,8 @@ int run_listen(const ListenOptions& o) {
       }
       std::fflush(stdout);
     }
+    if (client)
+      if (auto request = client->due(now)) send_to_daemon(*request);
     pollfd p{fd, POLLIN, 0};
     const int timeout_ms = 50;
     const int rc = ::poll(&p, 1, timeout_ms);
@@ -133,6 +165,19 @@ int run_listen(const ListenOptions& o) {
     if (rc <= 0) continue;
     const ssize_t n = ::recv(fd, buf.data(), buf.size(), 0);
     if (n < 0) continue;
+    if (client && client->on_datagram(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)),
+                                      ips::monotonic_ns())) {
+      if (client->state() != last_state) {
+        last_state = client->state();
+        if (last_state == ips::subscription::Client::State::kSubscribed)
+          std::fprintf(stderr, "ips listen: subscribed at %s (lease %u s, renewed every third)\n", o.subscribe.c_str(),
+                       client->lease_s());
+        else if (last_state == ips::subscription::Client::State::kRefusedFull)
+          std::fprintf(stderr, "ips listen: warning: %s is full (max_subscribers); retrying every 5 s\n",
+                       o.subscribe.c_str());
+      }
+      continue;
+    }
     ips::Datagram d;
     try {
       d = ips::decode_datagram(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)));
@@ -163,6 +208,7 @@ int run_listen(const ListenOptions& o) {
       v.arrivals.push_back(arrived);
     }
   }
+  if (client && client->state() == ips::subscription::Client::State::kSubscribed) send_to_daemon(client->unsubscribe());
   ::close(fd);
   std::fprintf(stderr, "ips listen: %llu datagrams, %llu malformed, %llu lost\n",
                static_cast<unsigned long long>(valid), static_cast<unsigned long long>(malformed),
@@ -174,14 +220,22 @@ IPS_REGISTER_COMMAND(
     "listen", "Receive and print the ipsd position stream (binary or JSON)",
     [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<ListenOptions>();
-      auto* bind = sub.add_option("--bind", o->bind, "ADDR:PORT to receive unicast/broadcast on")->capture_default_str();
+      auto* bind = sub.add_option("--bind", o->bind, "ADDR:PORT to receive unicast/broadcast on (with --subscribe: default any free port)")->capture_default_str();
       sub.add_option("--group", o->group, "multicast GROUP:PORT to join instead of --bind")->excludes(bind);
       sub.add_option("--interface", o->interface, "with --group: IPv4 address of the interface to join on");
       sub.add_flag("--json", o->json, "print every datagram as one JSON line (the stream's JSON form)");
       sub.add_option("--interval", o->interval_s, "seconds between table refreshes")->capture_default_str()->check(CLI::PositiveNumber);
       sub.add_option("--count", o->count, "stop after N valid datagrams (0 = never)")->check(CLI::NonNegativeNumber);
       sub.add_option("--duration", o->duration_s, "stop after S seconds (0 = never)")->check(CLI::NonNegativeNumber);
-      return [o] { return run_listen(*o); };
+      sub.add_option("--subscribe", o->subscribe, "ADDR:PORT of a daemon's subscriptions output: ask it for a unicast stream");
+      sub.add_option("--ids", o->ids, "with --subscribe: marker ids wanted (default all)")->delimiter(',');
+      sub.add_option("--format", o->format, "with --subscribe: binary | json")->capture_default_str();
+      sub.add_option("--lease", o->lease_s, "with --subscribe: lease to ask for, seconds (renewed at a third)")->capture_default_str();
+      sub.add_option("--psk", o->psk, "with --subscribe: the output's pre-shared key");
+      return [=] {
+        o->bind_given = bind->count() > 0;
+        return run_listen(*o);
+      };
     });
 
 }  // namespace

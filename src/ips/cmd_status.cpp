@@ -74,10 +74,16 @@ int run_status(const StatusOptions& o) {
     const std::string err = c.value("last_error", "");
     if (c.value("state", "") != "open" && !err.empty()) std::printf("             last error: %s\n", err.c_str());
   }
-  for (const auto& out : j.value("outputs", nlohmann::json::array()))
-    std::printf("  output %s: %llu datagrams, %llu send errors\n", out.value("output", "?").c_str(),
+  for (const auto& out : j.value("outputs", nlohmann::json::array())) {
+    std::printf("  output %s: %llu datagrams, %llu send errors", out.value("output", "?").c_str(),
                 static_cast<unsigned long long>(out.value("datagrams", 0ULL)),
                 static_cast<unsigned long long>(out.value("send_errors", 0ULL)));
+    // Type-specific counters (subscriptions: subscribers, refusals by reason, ...).
+    for (const auto& [name, value] : out.items())
+      if (value.is_number_unsigned() && name != "datagrams" && name != "send_errors" && name != "bytes")
+        std::printf(", %s %llu", name.c_str(), static_cast<unsigned long long>(value.get<std::uint64_t>()));
+    std::printf("\n");
+  }
   return 0;
 }
 

@@ -127,6 +127,8 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, std::int
     m.vx = f.velocity.x();
     m.vy = f.velocity.y();
     m.vz = f.velocity.z();
+    m.covariance = {f.covariance(0, 0), f.covariance(0, 1), f.covariance(0, 2),
+                    f.covariance(1, 1), f.covariance(1, 2), f.covariance(2, 2)};
     d.markers.push_back(m);
   }
   rt.publisher->publish(d);

@@ -66,8 +66,10 @@ std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fus
       rates.updates_per_s(), proc.p50_ms, proc.p99_ms, cap.p50_ms, cap.p99_ms, fusion.late.load(), fusion.too_old.load(),
       queue_drops);
   std::lock_guard lock(fusion.outputs_mutex);
-  for (const auto& o : fusion.outputs)
+  for (const auto& o : fusion.outputs) {
     out += fmt::format("; {}: sent {}, errors {}", o.description, o.datagrams, o.send_errors);
+    for (const auto& [name, value] : o.counters) out += fmt::format(", {} {}", name, value);
+  }
   lines.push_back(out);
   return lines;
 }
@@ -119,9 +121,11 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
   }
   j["outputs"] = nlohmann::json::array();
   std::lock_guard lock(fusion.outputs_mutex);
-  for (const auto& o : fusion.outputs)
+  for (const auto& o : fusion.outputs) {
     j["outputs"].push_back({{"output", o.description}, {"datagrams", o.datagrams}, {"bytes", o.bytes},
                             {"send_errors", o.send_errors}});
+    for (const auto& [name, value] : o.counters) j["outputs"].back()[name] = value;
+  }
   return j;
 }
 
