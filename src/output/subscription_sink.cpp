@@ -2,6 +2,8 @@
 
 #include <arpa/inet.h>
 #include <poll.h>
+#include <pthread.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -66,7 +68,13 @@ SubscriptionSink::SubscriptionSink(const OutputConfig& c, const std::string& whe
   }
   for (auto& s : secrets_) randombytes_buf(s.data(), s.size());
   secret_since_ns_ = monotonic_ns();
+  // The receive thread takes no signals: ipsd reads SIGTERM/SIGHUP through a signalfd, and the
+  // outputs may be opened before it blocks them (a thread with them unblocked would be killed).
+  sigset_t all, old;
+  sigfillset(&all);
+  pthread_sigmask(SIG_BLOCK, &all, &old);
   thread_ = std::thread([this] { receive_loop(); });
+  pthread_sigmask(SIG_SETMASK, &old, nullptr);
 }
 
 SubscriptionSink::~SubscriptionSink() {
