@@ -142,5 +142,33 @@ TEST_F(MavlinkConfigTest, SubscriptionsKeysDefaultsAndBadValues) {
   expect_error("  - {type: subscriptions, port: 5010, format: json}\n", "outputs[0].format: unknown key");
 }
 
+// The outputs of the shipped config/ipsd.yaml, with its commented-out mavlink block enabled,
+// parse (the file's cameras need devices and intrinsics that are not here, so the whole file
+// cannot be loaded in a test).
+TEST_F(MavlinkConfigTest, ShippedExampleOutputsParseWithTheMavlinkBlockEnabled) {
+  std::ifstream in(std::string(IPS_CONFIG_DIR) + "/ipsd.yaml");
+  std::string line, outputs;
+  bool inside = false, block = false;
+  while (std::getline(in, line)) {
+    if (line == "outputs:") {
+      inside = true;
+      continue;
+    }
+    if (!inside) continue;
+    if (!line.empty() && line[0] != ' ') break;  // the next top-level key
+    if (line.rfind("  # - type: mavlink", 0) == 0) block = true;
+    if (block && line.rfind("  #", 0) != 0) block = false;
+    if (block) line.erase(2, 2);  // "  # - type" -> "  - type", "  #   port" -> "    port"
+    outputs += line + "\n";
+  }
+  const DaemonConfig c = parse(outputs);
+  ASSERT_EQ(c.outputs.size(), 5u);
+  EXPECT_EQ(c.outputs[3].kind, OutputConfig::Kind::kSubscriptions);
+  EXPECT_EQ(c.outputs[3].subscriptions.allow, (std::vector<std::string>{"192.168.1.0/24"}));
+  EXPECT_EQ(c.outputs[4].kind, OutputConfig::Kind::kMavlink);
+  EXPECT_EQ(c.outputs[4].mavlink.vehicles.size(), 2u);
+  EXPECT_EQ(c.outputs[4].mavlink.vehicles[1].address, "192.168.1.32");
+}
+
 }  // namespace
 }  // namespace ips
