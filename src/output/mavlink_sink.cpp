@@ -16,6 +16,7 @@
 
 #include "ips/clock.h"
 #include "ips/error.h"
+#include "ips/kalman.h"
 
 namespace ips {
 
@@ -63,6 +64,8 @@ std::array<float, 21> pose_covariance(const MavlinkPose& p, double att_var) {
 MavlinkSink::MavlinkSink(const OutputConfig& c, const std::string& where)
     : settings_(c.mavlink), last_error_log_ns_(-kErrorLogIntervalNs) {
   stats_.description = c.describe();
+  // Loading fills track_gap from fusion.kalman.reset_after; a config built in code may not.
+  if (std::isnan(settings_.track_gap_s)) settings_.track_gap_s = KalmanOptions{}.reset_after_s;
   for (std::size_t i = 0; i < c.mavlink.vehicles.size(); ++i) {
     const MavlinkVehicle& vc = c.mavlink.vehicles[i];
     Vehicle v;

@@ -142,6 +142,13 @@ TEST_F(OutputsIpsdTest, MavlinkMatchesTheStreamAndSubscribersGetTheirOwn) {
   const auto& mav_status = status["outputs"][1];
   EXPECT_EQ(mav_status["output"], "mavlink 127.0.0.1:" + std::to_string(mav.port) + " (1 vehicle(s))");
   EXPECT_GE(mav_status.value("datagrams", 0), 2 * poses);
+  // `ips status` prints the type-specific counters after the common ones.
+  const fs::path status_log = *dir_ / "status.log";
+  EXPECT_EQ(test::run({test::bin("ips"), "status", "--socket", (*dir_ / "status.sock").string()}, status_log), 0);
+  const std::string printed = test::read_file(status_log);
+  EXPECT_NE(printed.find("output subscriptions on 127.0.0.1:" + std::to_string(sub_port)), std::string::npos) << printed;
+  EXPECT_NE(printed.find("refused_subnet "), std::string::npos) << printed;
+  EXPECT_EQ(printed.find("refused_subnet 0"), std::string::npos) << printed;  // the outsider resends each second
   const std::int64_t epoch = status["synthetic_epoch_mono_ns"];
   ::kill(pid, SIGTERM);
   EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(10)), 0);
