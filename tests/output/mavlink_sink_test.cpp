@@ -86,13 +86,16 @@ TEST(MavlinkSink, NodeMavlinkDecodesEveryFieldAsSent) {
   // Per vehicle: HEARTBEAT, VISION_POSITION_ESTIMATE, ODOMETRY (marker 4 is no vehicle).
   ASSERT_EQ(frames.size(), 6u);
 
+  // A negative control at the end: one payload bit flipped must fail the decoder's checksum.
+  auto with_control = frames;
+  with_control.push_back(frames[1]);
+  with_control.back()[12] ^= 0x01;
   std::string error;
-  const auto doc = test::decode_mavlink(frames, std::filesystem::temp_directory_path() /
+  const auto doc = test::decode_mavlink(with_control, std::filesystem::temp_directory_path() /
                                                     ("mavlink_sink_" + std::to_string(::getpid()) + ".bin"),
                                         error);
   ASSERT_TRUE(doc) << error;
-  EXPECT_EQ((*doc)["crc_errors"], 0);
-  EXPECT_EQ((*doc)["invalid"], 0);
+  EXPECT_EQ((*doc)["crc_errors"], 1);  // the control, and only it
   const auto& packets = (*doc)["packets"];
   ASSERT_EQ(packets.size(), frames.size()) << doc->dump();
 

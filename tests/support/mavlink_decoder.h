@@ -49,6 +49,8 @@ inline std::optional<nlohmann::json> decode_mavlink(const std::vector<std::vecto
   char buf[65536];
   for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
   const int rc = ::pclose(p);
+  std::error_code ec;
+  std::filesystem::remove(scratch, ec);
   if (rc != 0) {
     error = "decoder exited " + std::to_string(rc) + ": " + text;
     return std::nullopt;
