@@ -356,6 +356,14 @@ TEST(SubscriptionSink, BadAllowEntryAndBusyPortNameTheKey) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("outputs[3].allow[1]"), std::string::npos) << e.what();
   }
+  Peer holder;  // another program already has the port
+  OutputConfig busy = subscriptions_on(ntohs(holder.self.sin_port));
+  try {
+    (void)make_output_sink(busy, 2);
+    ADD_FAILURE() << "listened on a port in use";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("outputs[2].port: cannot listen on 127.0.0.1:"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
