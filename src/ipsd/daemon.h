@@ -18,9 +18,12 @@ namespace ipsd {
 
 class Daemon {
  public:
+  /// kCheck (`ipsd --check`) validates without taking what a running daemon holds: it does not
+  /// create the status socket (which would replace a running daemon's socket file).
+  enum class Mode { kRun, kCheck };
   /// Loads and checks everything; throws ips::InputError (exit 2) for a bad configuration,
   /// model file, intrinsics or output.
-  explicit Daemon(std::filesystem::path config_path);
+  explicit Daemon(std::filesystem::path config_path, Mode mode = Mode::kRun);
   ~Daemon();
 
   /// Opens the cameras, starts the threads, serves until SIGTERM/SIGINT. Returns the exit

@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
   // Under systemd the journal adds time and unit; on a terminal show the time ourselves.
   spdlog::set_pattern(std::getenv("JOURNAL_STREAM") ? "%^%l%$: %v" : "[%H:%M:%S.%e] %^%l%$: %v");
   try {
-    ipsd::Daemon daemon(config);
+    ipsd::Daemon daemon(config, check ? ipsd::Daemon::Mode::kCheck : ipsd::Daemon::Mode::kRun);
     if (!log_level.empty()) spdlog::set_level(spdlog::level::from_str(log_level));
     if (check) {
       daemon.check_sources();

@@ -294,6 +294,13 @@ TEST_F(IpsdTest, AnAbsentCameraIsRetriedUnlessRequired) {
   EXPECT_NE(status["cameras"][1]["last_error"].get<std::string>().find("ipsd-test-no-such-camera"), std::string::npos);
   for (const auto& [d, arrival] : got)
     for (const auto& m : d.markers) EXPECT_EQ(m.camera_mask, 1u);  // only red contributes
+  // `ipsd --check` on the running daemon's config (systemd's ExecCondition, an admin's check)
+  // validates without touching the running daemon: its status socket still answers afterwards.
+  const fs::path check_log = *dir_ / "ghost_check.log";
+  EXPECT_EQ(test::run({test::bin("ipsd"), "--config", cfg.string(), "--check"}, check_log, std::chrono::seconds(120)), 0)
+      << test::read_file(check_log);
+  EXPECT_TRUE(nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()), nullptr, false).is_object())
+      << "ipsd --check took the running daemon's status socket";
   ::kill(pid, SIGTERM);
   EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(5)), 0);
   // One warning for the absent camera, not one per retry.
