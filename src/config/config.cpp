@@ -39,6 +39,7 @@ double MarkerConfig::height_of(int id) const {
 }
 
 std::string OutputConfig::describe() const {
+  if (kind == Kind::kRos2) return "ros2 domain " + std::to_string(ros2.domain) + " /" + ros2.prefix;
   const char* kinds[] = {"unicast", "broadcast", "multicast"};
   return std::string(kinds[static_cast<int>(kind)]) + " " + address + ":" + std::to_string(port) + " (" +
          to_string(format) + ")";
@@ -278,6 +279,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
     if (!outputs.IsSequence()) r.fail(outputs, "outputs", "expected a list of outputs");
     for (std::size_t i = 0; i < outputs.size(); ++i) c.outputs.push_back(parse_output(outputs[i], static_cast<int>(i), file));
   }
+  config_detail::attach_ros2_marker_names(c, root, file);
 
   if (r.has("logging")) {
     MapReader l(r.node("logging"), "logging", file);

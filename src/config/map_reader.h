@@ -134,5 +134,10 @@ inline Enum pick(MapReader& r, const std::string& k, const std::vector<std::pair
 
 /// outputs[index]: one output of any type (src/config/parse_output.cpp).
 OutputConfig parse_output(const YAML::Node& n, int index, const std::string& file);
+/// outputs[i] of type ros2 (src/config/parse_output_ros2.cpp).
+void parse_ros2_output(MapReader& r, const YAML::Node& n, Ros2OutputSettings& o);
+/// Gives every ros2 output the marker names (checked as ROS name tokens), after both sections
+/// were read (src/config/parse_output_ros2.cpp).
+void attach_ros2_marker_names(DaemonConfig& c, const YAML::Node& root, const std::string& file);
 
 }  // namespace ips::config_detail

@@ -34,12 +34,14 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
   o.kind = pick<OutputConfig::Kind>(r, "type",
                                     {{"unicast", OutputConfig::Kind::kUnicast},
                                      {"broadcast", OutputConfig::Kind::kBroadcast},
-                                     {"multicast", OutputConfig::Kind::kMulticast}},
+                                     {"multicast", OutputConfig::Kind::kMulticast},
+                                     {"ros2", OutputConfig::Kind::kRos2}},
                                     o.kind, true);
   switch (o.kind) {
     case OutputConfig::Kind::kUnicast:
     case OutputConfig::Kind::kBroadcast:
     case OutputConfig::Kind::kMulticast: parse_udp_output(r, n, o); break;
+    case OutputConfig::Kind::kRos2: parse_ros2_output(r, n, o.ros2); break;
   }
   r.finish();
   return o;

@@ -1,5 +1,6 @@
 // The one place that maps an output type from the config to its implementation.
 #include "ips/output_sink.h"
+#include "ros2_sink.h"
 #include "udp_sink.h"
 
 namespace ips {
@@ -10,6 +11,7 @@ std::unique_ptr<OutputSink> make_output_sink(const OutputConfig& config, int ind
     case OutputConfig::Kind::kUnicast:
     case OutputConfig::Kind::kBroadcast:
     case OutputConfig::Kind::kMulticast: return std::make_unique<UdpSink>(config, where);
+    case OutputConfig::Kind::kRos2: return std::make_unique<Ros2Sink>(config, where);
   }
   throw InputError(where + ".type: not an output type this build can open");
 }
