@@ -1,6 +1,8 @@
 // outputs[i] of type ros2 in the configuration: defaults, ROS_DOMAIN_ID, marker names, and
 // every bad value refused naming its key (the daemon's exit 2 is in ros2_ipsd_test.cpp).
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -125,6 +127,23 @@ TEST(Ros2Config, MarkerNamesMustBeRosNamesAndDistinct) {
                InputError);
   // Without a ros2 output any name is fine (ips listen shows it).
   EXPECT_NO_THROW((void)parse_config(head + "markers:\n  ids:\n    3: {name: robot 1}\n", "ipsd.yaml", {false, false}));
+}
+
+TEST(Ros2Config, TheCommentedExampleOfTheShippedConfigLoads) {
+  const DomainEnv env(nullptr);
+  std::ifstream in(std::string(IPS_CONFIG_DIR) + "/ipsd.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string commented = "  # - {type: ros2";
+  const auto at = yaml.find(commented);
+  ASSERT_NE(at, std::string::npos);
+  yaml.replace(at, commented.size(), "  - {type: ros2");
+  const DaemonConfig c = parse_config(yaml, std::string(IPS_CONFIG_DIR) + "/ipsd.yaml", ConfigChecks{false, false});
+  ASSERT_FALSE(c.outputs.empty());
+  const OutputConfig& o = c.outputs.back();
+  ASSERT_EQ(o.kind, OutputConfig::Kind::kRos2);
+  EXPECT_EQ(o.ros2.marker_names.at(7), "arm_base");  // the example's marker names are ROS names
 }
 
 }  // namespace
