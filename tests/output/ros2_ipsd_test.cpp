@@ -91,8 +91,10 @@ TEST_F(Ros2IpsdTest, RosSubscriberGetsTheDaemonsStreamUnderRos2Names) {
   const pid_t pid = test::spawn({test::bin("ipsd"), "--config", cfg.string()}, log);
   const test::ChildGuard guard(pid);
 
-  // (id, realtime stamp) -> the UDP record: the ROS samples are looked up by their stamp.
-  std::map<std::pair<std::uint32_t, std::int64_t>, UdpMarker> udp;
+  // (id, realtime stamp) -> the UDP records: the ROS samples are looked up by their stamp. One
+  // capture instant can give several updates (one per camera frame of that instant, each fusing
+  // more of them), so a stamp may hold several records.
+  std::map<std::pair<std::uint32_t, std::int64_t>, std::vector<UdpMarker>> udp;
   std::vector<PoseStamped> poses;
   std::vector<Odometry> odoms;
   std::vector<std::vector<std::string>> tf_children;
@@ -103,7 +105,7 @@ TEST_F(Ros2IpsdTest, RosSubscriberGetsTheDaemonsStreamUnderRos2Names) {
         while (auto bytes = rx.receive(0)) {
           const Datagram d = decode_datagram(*bytes);
           for (const auto& m : d.markers)
-            udp[{m.id, d.capture_realtime_ns + 1000LL * m.dt_us}] = {m, d.capture_monotonic_ns + 1000LL * m.dt_us};
+            udp[{m.id, d.capture_realtime_ns + 1000LL * m.dt_us}].push_back({m, d.capture_monotonic_ns + 1000LL * m.dt_us});
         }
         test::take_all<PoseStamped>(pose1, [&](const PoseStamped& m) {
           poses.push_back(m);
@@ -158,14 +160,20 @@ TEST_F(Ros2IpsdTest, RosSubscriberGetsTheDaemonsStreamUnderRos2Names) {
     const auto it = udp.find({1u, ns(ps.header.stamp)});
     if (it == udp.end()) continue;  // its datagram is still on the way
     ++matched;
-    const MarkerRecord& m = it->second.m;
-    // The binary UDP stream carries float32 of the same doubles ROS gets.
-    EXPECT_EQ(static_cast<float>(ps.pose.position.x), static_cast<float>(m.x));
-    EXPECT_EQ(static_cast<float>(ps.pose.position.y), static_cast<float>(m.y));
-    EXPECT_EQ(static_cast<float>(ps.pose.position.z), static_cast<float>(m.z));
+    // The binary UDP stream carries float32 of the same doubles ROS gets: one of the records
+    // with this stamp is the same update.
+    const UdpMarker* same = nullptr;
+    for (const UdpMarker& u : it->second)
+      if (static_cast<float>(ps.pose.position.x) == static_cast<float>(u.m.x) &&
+          static_cast<float>(ps.pose.position.y) == static_cast<float>(u.m.y) &&
+          static_cast<float>(ps.pose.position.z) == static_cast<float>(u.m.z))
+        same = &u;
+    ASSERT_NE(same, nullptr) << "no UDP record at stamp " << ns(ps.header.stamp) << " has (" << ps.pose.position.x
+                             << ", " << ps.pose.position.y << ")";
+    const MarkerRecord& m = same->m;
     EXPECT_NEAR(ps.pose.orientation.z, std::sin(m.yaw / 2), 1e-6);
     EXPECT_NEAR(ps.pose.orientation.w, std::cos(m.yaw / 2), 1e-6);
-    const double t = 1e-9 * static_cast<double>(it->second.capture_mono_ns - epoch);
+    const double t = 1e-9 * static_cast<double>(same->capture_mono_ns - epoch);
     const sim::MarkerPose truth = scene.marker_pose(1, t);
     EXPECT_LT(std::hypot(ps.pose.position.x - truth.x, ps.pose.position.y - truth.y), 0.02) << "t " << t;
     EXPECT_NEAR(ps.pose.position.z, 0.15, 1e-6);
@@ -178,8 +186,13 @@ TEST_F(Ros2IpsdTest, RosSubscriberGetsTheDaemonsStreamUnderRos2Names) {
   for (const auto& od : odoms) {
     const auto it = udp.find({2u, ns(od.header.stamp)});
     if (it == udp.end()) continue;
-    const MarkerRecord& m = it->second.m;
-    EXPECT_EQ(static_cast<float>(od.pose.pose.position.x), static_cast<float>(m.x));
+    const UdpMarker* same = nullptr;
+    for (const UdpMarker& u : it->second)
+      if (static_cast<float>(od.pose.pose.position.x) == static_cast<float>(u.m.x) &&
+          static_cast<float>(od.pose.pose.position.y) == static_cast<float>(u.m.y))
+        same = &u;
+    ASSERT_NE(same, nullptr) << "no UDP record at stamp " << ns(od.header.stamp);
+    const MarkerRecord& m = same->m;
     const double c = std::cos(m.yaw), s = std::sin(m.yaw);  // float32 inputs: compare to 1e-5
     EXPECT_NEAR(od.twist.twist.linear.x, c * m.vx + s * m.vy, 1e-5);
     EXPECT_NEAR(od.twist.twist.linear.y, -s * m.vx + c * m.vy, 1e-5);
