@@ -122,9 +122,28 @@ struct SubscriptionSettings {
   bool operator==(const SubscriptionSettings&) const = default;
 };
 
+/// outputs[i] of type ros2: ROS 2 messages over DDS (README "ROS 2"; src/output/ros2_sink.h).
+struct Ros2OutputSettings {
+  int domain = 0;                  ///< DDS domain 0..232; key absent: $ROS_DOMAIN_ID if set, else 0
+  std::string prefix = "ipsd";     ///< ROS namespace of the topics: /<prefix>/<name>/pose
+  std::string frame_id = "world";  ///< header.frame_id of poses and odometry, the TF parent frame
+  /// Odometry child_frame_id and TF child frame; "{name}" and "{id}" are replaced per marker.
+  std::string child_frame_id = "{name}";
+  bool pose = true;       ///< geometry_msgs/PoseStamped on <prefix>/<name>/pose
+  bool odometry = true;   ///< nav_msgs/Odometry on <prefix>/<name>/odom (updates with velocity only)
+  bool tf = false;        ///< tf2_msgs/TFMessage on /tf (always reliable: tf2 listeners ask for it)
+  bool reliable = false;  ///< qos: best_effort (false) | reliable
+  int depth = 5;          ///< keep-last history depth per topic, 1..1000
+  /// Not a key: markers.ids.<id>.name of every named marker, copied at load time (the ROS name
+  /// of an unnamed marker is marker_<id>).
+  std::map<int, std::string> marker_names;
+
+  bool operator==(const Ros2OutputSettings&) const = default;
+};
+
 struct OutputConfig {
-  enum class Kind { kUnicast, kBroadcast, kMulticast, kMavlink, kSubscriptions };
-  Kind kind = Kind::kUnicast;       ///< required: unicast | broadcast | multicast | mavlink | subscriptions
+  enum class Kind { kUnicast, kBroadcast, kMulticast, kMavlink, kSubscriptions, kRos2 };
+  Kind kind = Kind::kUnicast;       ///< required: unicast | broadcast | multicast | mavlink | subscriptions | ros2
   std::string address;              ///< required: IPv4 host / broadcast address / multicast group
   std::uint16_t port = 0;           ///< required: UDP port
   WireFormat format = WireFormat::kBinary;  ///< binary | json
@@ -132,6 +151,7 @@ struct OutputConfig {
   std::string interface;            ///< multicast: IPv4 address of the sending interface; "" = default route
   MavlinkOutputSettings mavlink;    ///< type mavlink (address/port: the default destination)
   SubscriptionSettings subscriptions;  ///< type subscriptions (address/port: where to listen)
+  Ros2OutputSettings ros2;          ///< type ros2 only
   std::string describe() const;     ///< "multicast 239.1.2.3:5005 (json)"
 
   bool operator==(const OutputConfig&) const = default;

@@ -39,6 +39,7 @@ double MarkerConfig::height_of(int id) const {
 }
 
 std::string OutputConfig::describe() const {
+  if (kind == Kind::kRos2) return "ros2 domain " + std::to_string(ros2.domain) + " /" + ros2.prefix;
   const std::string where = address + ":" + std::to_string(port);
   switch (kind) {
     case Kind::kMavlink: return "mavlink " + where + " (" + std::to_string(mavlink.vehicles.size()) + " vehicle(s))";
@@ -286,6 +287,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
     for (OutputConfig& o : c.outputs)
       if (std::isnan(o.mavlink.track_gap_s)) o.mavlink.track_gap_s = c.fusion.kalman_options.reset_after_s;
   }
+  config_detail::attach_ros2_marker_names(c, root, file);
 
   if (r.has("logging")) {
     MapReader l(r.node("logging"), "logging", file);

@@ -138,5 +138,10 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
 void parse_mavlink_output(MapReader& r, const YAML::Node& n, OutputConfig& o, const std::string& file);
 /// The type-specific keys of a subscriptions output (src/config/parse_output_subscriptions.cpp).
 void parse_subscriptions_output(MapReader& r, const YAML::Node& n, OutputConfig& o);
+/// outputs[i] of type ros2 (src/config/parse_output_ros2.cpp).
+void parse_ros2_output(MapReader& r, const YAML::Node& n, Ros2OutputSettings& o);
+/// Gives every ros2 output the marker names (checked as ROS name tokens), after both sections
+/// were read (src/config/parse_output_ros2.cpp).
+void attach_ros2_marker_names(DaemonConfig& c, const YAML::Node& root, const std::string& file);
 
 }  // namespace ips::config_detail

@@ -36,7 +36,8 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
                                      {"broadcast", OutputConfig::Kind::kBroadcast},
                                      {"multicast", OutputConfig::Kind::kMulticast},
                                      {"mavlink", OutputConfig::Kind::kMavlink},
-                                     {"subscriptions", OutputConfig::Kind::kSubscriptions}},
+                                     {"subscriptions", OutputConfig::Kind::kSubscriptions},
+                                     {"ros2", OutputConfig::Kind::kRos2}},
                                     o.kind, true);
   switch (o.kind) {
     case OutputConfig::Kind::kUnicast:
@@ -44,6 +45,7 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
     case OutputConfig::Kind::kMulticast: parse_udp_output(r, n, o); break;
     case OutputConfig::Kind::kMavlink: parse_mavlink_output(r, n, o, file); break;
     case OutputConfig::Kind::kSubscriptions: parse_subscriptions_output(r, n, o); break;
+    case OutputConfig::Kind::kRos2: parse_ros2_output(r, n, o.ros2); break;
   }
   r.finish();
   return o;

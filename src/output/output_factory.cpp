@@ -2,6 +2,7 @@
 #include "ips/output_sink.h"
 #include "mavlink_sink.h"
 #include "subscription_sink.h"
+#include "ros2_sink.h"
 #include "udp_sink.h"
 
 namespace ips {
@@ -14,6 +15,7 @@ std::unique_ptr<OutputSink> make_output_sink(const OutputConfig& config, int ind
     case OutputConfig::Kind::kMulticast: return std::make_unique<UdpSink>(config, where);
     case OutputConfig::Kind::kMavlink: return std::make_unique<MavlinkSink>(config, where);
     case OutputConfig::Kind::kSubscriptions: return std::make_unique<SubscriptionSink>(config, where);
+    case OutputConfig::Kind::kRos2: return std::make_unique<Ros2Sink>(config, where);
   }
   throw InputError(where + ".type: not an output type this build can open");
 }

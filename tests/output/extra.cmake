@@ -7,3 +7,9 @@ target_compile_options(ips_wire_c_check PRIVATE -Wall -Wextra -Wpedantic -Werror
 if(TARGET test_output)
   add_dependencies(test_output ips_wire_c_check)
 endif()
+
+# The ros2 output's tests subscribe with the Cyclone DDS C API and the generated ROS 2 types.
+if(TARGET test_output)
+  target_link_libraries(test_output PRIVATE ips_ros2_msgs)
+  target_include_directories(test_output PRIVATE ${PROJECT_SOURCE_DIR}/src ${PROJECT_SOURCE_DIR}/tests/daemon)
+endif()
