@@ -62,7 +62,7 @@ std::string detection_line(const Detection& d);
 Session load_session(const std::filesystem::path& dir);
 
 /// A period in which one camera saw one marker still: its corners moved less than
-/// `still_px` from their mean for at least `min_still_s`.
+/// `still_px` from their mean over the period, for at least `min_still_s`.
 struct StillPeriod {
   int camera = -1;  ///< index into Session::cameras
   int id = -1;
@@ -72,7 +72,7 @@ struct StillPeriod {
 };
 
 struct StillOptions {
-  double still_px = 0.5;     ///< max distance of a corner from its mean over the period
+  double still_px = 0.5;     ///< every corner of every frame within this many pixels of the period's mean
   double min_still_s = 0.3;  ///< shortest still period
   int min_frames = 3;
   double max_gap_s = 0.25;   ///< a longer gap between two detections ends the period

@@ -116,7 +116,7 @@ int run(const Args& a) {
   std::printf("references (where each camera's surveyed pose puts them, minus the known position):\n");
   for (const auto& r : result.references)
     for (const auto& [name, e] : r.residual)
-      std::printf("  marker %d (%.3f, %.3f, %.3f) in %s: dx %+.1f mm dy %+.1f mm (%.1f mm)\n", r.id, r.known.x(),
+      std::printf("  marker %d (%.3f, %.3f, %.3f) in %s: dx %+.2f mm dy %+.2f mm (%.2f mm)\n", r.id, r.known.x(),
                   r.known.y(), r.known.z(), name.c_str(), e.x() * 1e3, e.y() * 1e3, e.norm() * 1e3);
   for (auto& [model, entry] : set.cameras)
     for (const auto& r : result.references)

@@ -84,6 +84,17 @@ std::vector<Target> make_targets(const SurveyInput& input) {
       if (!(v.t_cm.z() > 0)) continue;
       t.views.push_back(v);
     }
+    // A reference is one pose however many instants it was found in (a camera's still
+    // period may break on a noisy frame): its views join one target, one per camera.
+    if (t.reference >= 0) {
+      auto same = std::find_if(out.begin(), out.end(), [&](const Target& o) { return o.reference == t.reference; });
+      if (same != out.end()) {
+        for (const View& v : t.views)
+          if (std::none_of(same->views.begin(), same->views.end(), [&](const View& w) { return w.camera == v.camera; }))
+            same->views.push_back(v);
+        continue;
+      }
+    }
     // A wand instant only one camera saw links nothing; a reference seen once still anchors.
     if (t.views.size() >= 2 || (t.reference >= 0 && !t.views.empty())) out.push_back(std::move(t));
   }

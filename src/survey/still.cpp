@@ -6,6 +6,7 @@
 // spans overlap, the marker stood at one place over their union, and the mean corners of each
 // period are views of one and the same pose. Only such instants enter the bundle adjustment.
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <numeric>
 
@@ -14,8 +15,23 @@
 namespace ips::survey {
 namespace {
 
-struct Box {
-  double x0, x1, y0, y1;
+/// Running mean of the four corners of a period.
+struct Mean {
+  std::array<Point2, 4> sum{};
+  int n = 0;
+  void add(const Detection& d) {
+    for (std::size_t k = 0; k < 4; ++k) {
+      sum[k].x += d.corners[k].x;
+      sum[k].y += d.corners[k].y;
+    }
+    ++n;
+  }
+  /// True if every corner of `d` lies within `r` pixels of the mean.
+  bool near(const Detection& d, double r) const {
+    for (std::size_t k = 0; k < 4; ++k)
+      if (std::hypot(d.corners[k].x - sum[k].x / n, d.corners[k].y - sum[k].y / n) > r) return false;
+    return true;
+  }
 };
 
 }  // namespace
@@ -30,11 +46,7 @@ std::vector<StillPeriod> find_still_periods(const Session& session, const StillO
     for (auto& [id, dets] : by_id) {
       std::stable_sort(dets.begin(), dets.end(), [](const Detection* a, const Detection* b) { return a->t_ns < b->t_ns; });
       std::size_t start = 0;
-      std::array<Box, 4> box{};
-      auto reset = [&](std::size_t i) {
-        start = i;
-        for (int k = 0; k < 4; ++k) box[k] = {dets[i]->corners[k].x, dets[i]->corners[k].x, dets[i]->corners[k].y, dets[i]->corners[k].y};
-      };
+      Mean mean;
       auto emit = [&](std::size_t end) {  // [start, end)
         const int n = static_cast<int>(end - start);
         if (n < o.min_frames || dets[end - 1]->t_ns - dets[start]->t_ns < min_ns) return;
@@ -44,30 +56,20 @@ std::vector<StillPeriod> find_still_periods(const Session& session, const StillO
         p.t0_ns = dets[start]->t_ns;
         p.t1_ns = dets[end - 1]->t_ns;
         p.frames = n;
-        for (std::size_t i = start; i < end; ++i)
-          for (int k = 0; k < 4; ++k) {
-            p.corners[k].x += dets[i]->corners[k].x / n;
-            p.corners[k].y += dets[i]->corners[k].y / n;
-          }
+        for (std::size_t k = 0; k < 4; ++k) p.corners[k] = {mean.sum[k].x / n, mean.sum[k].y / n};
         out.push_back(p);
       };
       if (dets.empty()) continue;
-      reset(0);
+      mean.add(*dets[0]);
       for (std::size_t i = 1; i < dets.size(); ++i) {
-        bool still = dets[i]->t_ns - dets[i - 1]->t_ns <= gap_ns;
-        std::array<Box, 4> grown = box;
-        for (int k = 0; k < 4 && still; ++k) {
-          Box& b = grown[k];
-          const Point2& p = dets[i]->corners[k];
-          b = {std::min(b.x0, p.x), std::max(b.x1, p.x), std::min(b.y0, p.y), std::max(b.y1, p.y)};
-          still = b.x1 - b.x0 <= o.still_px && b.y1 - b.y0 <= o.still_px;
+        if (dets[i]->t_ns - dets[i - 1]->t_ns <= gap_ns && mean.near(*dets[i], o.still_px)) {
+          mean.add(*dets[i]);
+          continue;
         }
-        if (still) {
-          box = grown;
-        } else {
-          emit(i);
-          reset(i);
-        }
+        emit(i);
+        start = i;
+        mean = Mean{};
+        mean.add(*dets[i]);
       }
       emit(dets.size());
     }

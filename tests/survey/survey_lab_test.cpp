@@ -30,7 +30,7 @@ std::string record_config(const std::string& scene, double fps) {
   std::string c = "cameras:\n";
   for (const auto& cam : test::lab_cameras())
     c += std::string("  - {name: ") + cam.name + ", source: synthetic, scene: " + scene +
-         ", fps: " + std::to_string(fps) + ", phase_s: " + std::to_string(cam.phase_s) + "}\n";
+         ", fps: " + std::to_string(fps) + ", phase: " + std::to_string(cam.phase_s) + "}\n";
   return c + "markers: {edge_length: 0.20}\nmodel_file: model.json\n";
 }
 
@@ -63,7 +63,6 @@ TEST(SurveyLab, RecordSurveyThenLocateWithinOneCentimetre) {
                       log, std::chrono::seconds(180)),
             0)
       << test::read_file(log);
-  std::printf("%s", test::read_file(log).c_str());
 
   // A reference list naming markers nobody saw: refused, nothing written.
   std::ofstream(dir / "norefs.yaml") << "references:\n  - {id: 90, x: 0, y: 0}\n  - {id: 91, x: 1, y: 0}\n"
