@@ -135,6 +135,9 @@ struct ReferenceResult {
   /// camera name -> where that camera's surveyed pose puts the marker (ray through its
   /// centre meets z = known.z) minus the known position, metres (x, y)
   std::map<std::string, Eigen::Vector2d> residual;
+  /// the same with the survey solved without this reference (leave-one-out): how well it
+  /// agrees with the other references and the wand (empty if that solve failed)
+  std::map<std::string, Eigen::Vector2d> left_out;
 };
 
 struct SurveyResult {

@@ -113,18 +113,28 @@ int run(const Args& a) {
     if (!c.covariance_ok) entry.training["sigma_centre_m"] = nullptr;
     set.cameras[c.model] = std::move(entry);
   }
-  std::printf("references (where each camera's surveyed pose puts them, minus the known position):\n");
+  std::printf("references: where each camera puts them minus the known position, in the fit and with the\n"
+              "survey solved without that reference (left out: how well the references agree):\n");
   for (const auto& r : result.references)
-    for (const auto& [name, e] : r.residual)
-      std::printf("  marker %d (%.3f, %.3f, %.3f) in %s: dx %+.2f mm dy %+.2f mm (%.2f mm)\n", r.id, r.known.x(),
-                  r.known.y(), r.known.z(), name.c_str(), e.x() * 1e3, e.y() * 1e3, e.norm() * 1e3);
+    for (const auto& [name, e] : r.residual) {
+      const auto lo = r.left_out.find(name);
+      char loo[80] = "left out: (solve failed)";
+      if (lo != r.left_out.end())
+        std::snprintf(loo, sizeof loo, "left out: dx %+.1f dy %+.1f mm (%.1f mm)", lo->second.x() * 1e3,
+                      lo->second.y() * 1e3, lo->second.norm() * 1e3);
+      std::printf("  marker %d (%.3f, %.3f, %.3f) in %s: fit %.2f mm; %s\n", r.id, r.known.x(), r.known.y(),
+                  r.known.z(), name.c_str(), e.norm() * 1e3, loo);
+    }
   for (auto& [model, entry] : set.cameras)
     for (const auto& r : result.references)
       for (const auto& [name, e] : r.residual)
         for (const auto& c : input.cameras)
-          if (c.name == name && c.model == model)
-            entry.training["references"][std::to_string(r.id)] = {{"known", {r.known.x(), r.known.y(), r.known.z()}},
-                                                                   {"residual_m", {e.x(), e.y()}}};
+          if (c.name == name && c.model == model) {
+            nlohmann::json j = {{"known", {r.known.x(), r.known.y(), r.known.z()}}, {"residual_m", {e.x(), e.y()}}};
+            const auto lo = r.left_out.find(name);
+            if (lo != r.left_out.end()) j["left_out_m"] = {lo->second.x(), lo->second.y()};
+            entry.training["references"][std::to_string(r.id)] = j;
+          }
   save_model_file(set, a.out);
   std::printf("model: %s\n", a.out.c_str());
   if (!a.report.empty()) {

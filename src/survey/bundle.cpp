@@ -122,35 +122,42 @@ SurveyResult run_survey(const SurveyInput& input) {
     yaw[i] = std::atan2(R_wm(1, 0), R_wm(0, 0));
   }
 
-  ceres::Problem problem;
+  using Params = std::vector<std::array<double, 6>>;
   struct Block {
     std::size_t camera;
     ceres::ResidualBlockId id;
   };
-  std::vector<Block> blocks;
-  for (std::size_t i = 0; i < targets.size(); ++i) {
-    const Target& t = targets[i];
-    const auto corners = detail::marker_corners(t.edge);
-    for (const View& v : t.views) {
-      const auto c = static_cast<std::size_t>(v.camera);
-      const double f = input.cameras[c].intrinsics.K()(0, 0);
-      for (std::size_t k = 0; k < 4; ++k) {
-        ceres::LossFunction* loss = new ceres::HuberLoss(input.huber_px);
-        ceres::ResidualBlockId id;
-        if (t.reference >= 0) {
-          const auto& known = input.references[static_cast<std::size_t>(t.reference)].position;
-          auto* cost = new ceres::AutoDiffCostFunction<ReferenceCorner, 2, 6, 1>(
-              new ReferenceCorner{RayResidual(v.ray[k], f), corners[k], known});
-          id = problem.AddResidualBlock(cost, loss, cam[c].data(), &yaw[i]);
-        } else {
-          auto* cost = new ceres::AutoDiffCostFunction<WandCorner, 2, 6, 6>(
-              new WandCorner{RayResidual(v.ray[k], f), corners[k]});
-          id = problem.AddResidualBlock(cost, loss, cam[c].data(), wand[i].data());
+  // Every corner's residual, but those of reference `skip` (leave-one-out check).
+  auto build = [&](ceres::Problem& problem, Params& cams, Params& wands, std::vector<double>& yaws, int skip) {
+    std::vector<Block> out;
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      const Target& t = targets[i];
+      if (t.reference >= 0 && t.reference == skip) continue;
+      const auto corners = detail::marker_corners(t.edge);
+      for (const View& v : t.views) {
+        const auto c = static_cast<std::size_t>(v.camera);
+        const double f = input.cameras[c].intrinsics.K()(0, 0);
+        for (std::size_t k = 0; k < 4; ++k) {
+          ceres::LossFunction* loss = new ceres::HuberLoss(input.huber_px);
+          ceres::ResidualBlockId id;
+          if (t.reference >= 0) {
+            const auto& known = input.references[static_cast<std::size_t>(t.reference)].position;
+            auto* cost = new ceres::AutoDiffCostFunction<ReferenceCorner, 2, 6, 1>(
+                new ReferenceCorner{RayResidual(v.ray[k], f), corners[k], known});
+            id = problem.AddResidualBlock(cost, loss, cams[c].data(), &yaws[i]);
+          } else {
+            auto* cost = new ceres::AutoDiffCostFunction<WandCorner, 2, 6, 6>(
+                new WandCorner{RayResidual(v.ray[k], f), corners[k]});
+            id = problem.AddResidualBlock(cost, loss, cams[c].data(), wands[i].data());
+          }
+          out.push_back({c, id});
         }
-        blocks.push_back({c, id});
       }
     }
-  }
+    return out;
+  };
+  ceres::Problem problem;
+  const std::vector<Block> blocks = build(problem, cam, wand, yaw, -1);
 
   auto rms_by_camera = [&](std::vector<double>& per_camera, std::vector<int>& n) {
     per_camera.assign(nc, 0.0);
@@ -228,11 +235,24 @@ SurveyResult run_survey(const SurveyInput& input) {
     ReferenceResult rr;
     rr.id = t.id;
     rr.known = input.references[static_cast<std::size_t>(t.reference)].position;
+    // Left out: the survey solved again without this reference (from the full solution);
+    // where its cameras then put it shows how well the references agree with each other.
+    Params loo_cam = cam, loo_wand = wand;
+    std::vector<double> loo_yaw = yaw;
+    ceres::Problem loo;
+    build(loo, loo_cam, loo_wand, loo_yaw, t.reference);
+    ceres::Solver::Summary loo_summary;
+    ceres::Solve(options, &loo, &loo_summary);
     for (const View& v : t.views) {
       const auto c = static_cast<std::size_t>(v.camera);
       ++out.cameras[c].references_seen;
       rr.residual[out.cameras[c].name] =
           floor_centre(v, out.cameras[c].R_wc.transpose(), out.cameras[c].centre, rr.known.z()) - rr.known.head<2>();
+      if (loo_summary.IsSolutionUsable())
+        rr.left_out[out.cameras[c].name] =
+            floor_centre(v, rotation(loo_cam[c].data()), Eigen::Vector3d(loo_cam[c][3], loo_cam[c][4], loo_cam[c][5]),
+                         rr.known.z()) -
+            rr.known.head<2>();
     }
     out.references.push_back(rr);
   }

@@ -92,11 +92,11 @@ TEST(SurveySolve, UnsynchronisedCamerasStillPeriodsGiveThePosesWithinMillimetres
   const survey::Session session = survey::load_session(lab.dir / "session");
   ASSERT_EQ(session.cameras.size(), 4u);
   const survey::SurveyInput input = make_input(lab, session);
-  // Every pause of each of the two wand markers (12 points) is found, in >= 2 cameras.
+  // The pauses seen by two or more cameras are found.
   int wand = 0;
   for (const auto& in : input.instants)
     if (in.id >= 30 && in.views.size() >= 2) ++wand;
-  EXPECT_GE(wand, 40);
+  EXPECT_GE(wand, 30);  // of 48 pauses (2 loops x 12 x 2 markers), some in one camera's view only
   const survey::SurveyResult r = survey::run_survey(input);
   ASSERT_EQ(r.cameras.size(), 4u);
   for (std::size_t c = 0; c < 4; ++c) {
@@ -115,6 +115,15 @@ TEST(SurveySolve, UnsynchronisedCamerasStillPeriodsGiveThePosesWithinMillimetres
     ASSERT_TRUE(r.cameras[c].covariance_ok) << truth.name;
     EXPECT_LT(dp, 3 * r.cameras[c].sigma.norm() + 5e-4) << truth.name;
     EXPECT_LT(r.cameras[c].sigma.norm(), 0.01) << truth.name;
+  }
+  ASSERT_EQ(r.references.size(), 3u);
+  for (const auto& ref : r.references) {
+    ASSERT_FALSE(ref.left_out.empty()) << ref.id;
+    for (const auto& [name, e] : ref.left_out) {
+      std::printf("[ survey   ] reference %d in %s: fit %.2f mm, left out %.2f mm\n", ref.id, name.c_str(),
+                  ref.residual.at(name).norm() * 1e3, e.norm() * 1e3);
+      EXPECT_LT(e.norm(), 0.005) << ref.id << " " << name;
+    }
   }
   EXPECT_EQ(r.cameras[3].references_seen, 0) << "camera d must see no reference (the lab's point)";
   EXPECT_GT(r.cameras[0].references_seen, 0);
