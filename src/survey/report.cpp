@@ -1,7 +1,7 @@
 // The survey's report image: a top view of the lab (x right, y up) with each camera's centre
 // and viewing direction, its footprint on the floor (the image border's rays meeting z = 0),
 // the wand positions used and the references (known position, and where each camera's
-// surveyed pose puts it, the error magnified).
+// surveyed pose puts it when solved without it, the error magnified).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -94,13 +94,14 @@ void write_report_png(const SurveyResult& result, const SurveyInput& input, cons
     const cv::Point at = px(r.known.head<2>());
     cv::rectangle(img, at - cv::Point(6, 6), at + cv::Point(6, 6), cv::Scalar(0, 0, 0), 2);
     double worst = 0;
-    for (const auto& [name, e] : r.residual) {
+    // The leave-one-out error (the fit's own residual at a reference is ~0 by construction).
+    for (const auto& [name, e] : r.left_out.empty() ? r.residual : r.left_out) {
       worst = std::max(worst, e.norm());
       // The error magnified 100x (1 cm is drawn as 1 m).
       cv::line(img, at, px(r.known.head<2>() + 100.0 * e), cv::Scalar(0, 0, 200), 1, cv::LINE_AA);
     }
     char text[80];
-    std::snprintf(text, sizeof text, "ref %d: <= %.1f mm", r.id, worst * 1000);
+    std::snprintf(text, sizeof text, "ref %d: left out <= %.1f mm", r.id, worst * 1000);
     cv::putText(img, text, at + cv::Point(9, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   }
   char title[200];
