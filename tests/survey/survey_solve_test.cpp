@@ -11,8 +11,10 @@
 #include <Eigen/Geometry>
 
 #include "ips/error.h"
+#include "ips/model_file.h"
 #include "ips/sim/scene.h"
 #include "ips/survey.h"
+#include "process_util.h"
 #include "survey_lab.h"
 
 namespace ips {
@@ -202,6 +204,83 @@ TEST(SurveySolve, StillPeriodsOverlapAcrossPhases) {
   for (const auto& in : instants) EXPECT_EQ(in.views.size(), 2u);
   EXPECT_NEAR(instants[0].views[0].corners[0].x, 100.0, 1e-9);
   EXPECT_NEAR(instants[1].views[0].corners[0].x, 150.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace ips
+
+namespace ips {
+namespace {
+
+// `ips survey` as a program on the projected session: the config the session names gives
+// the same cameras (written model loads as `plane`); a config whose camera d has another
+// lens is refused (exit 2, the fingerprint named, nothing written).
+TEST(SurveySolve, CommandWritesPlaneModelAndRefusesAnotherConfig) {
+  const Lab lab = make_session("cli", 61.0, 15.0, 0.15);
+  const fs::path dir = lab.dir;
+  auto config = [&](const std::string& scene) {
+    std::string c = "cameras:\n";
+    for (const auto& cam : test::lab_cameras())
+      c += std::string("  - {name: ") + cam.name + ", source: synthetic, scene: " + scene + "}\n";
+    return c + "markers: {edge_length: 0.20}\nmodel_file: model.json\n";
+  };
+  std::ofstream(dir / "ipsd.yaml") << config("lab.yaml");
+  std::string other = test::lab_scene(IPS_TEST_DATA_DIR, 1.0, 1.0);
+  other.replace(other.rfind("intrinsics_red.yaml"), 19, "intrinsics_white.yaml");  // camera d's lens
+  std::ofstream(dir / "other.yaml") << other;
+  std::ofstream(dir / "other_ipsd.yaml") << config("other.yaml");
+  std::string refs = "references:\n";
+  for (const auto& r : test::lab_references())
+    refs += "  - {id: " + std::to_string(r.id) + ", x: " + std::to_string(r.x) + ", y: " + std::to_string(r.y) + "}\n";
+  std::ofstream(dir / "refs.yaml") << refs;
+  const fs::path log = dir / "log.txt";
+  const auto limit = std::chrono::seconds(static_cast<long>(60 * test::kTimeScale));
+  EXPECT_EQ(test::run({test::bin("ips"), "survey", "--session", (dir / "session").string(), "--references",
+                       (dir / "refs.yaml").string(), "--config", (dir / "other_ipsd.yaml").string(), "--out",
+                       (dir / "bad.json").string()},
+                      log, limit),
+            2);
+  EXPECT_NE(test::read_file(log).find("recorded with other cameras or intrinsics"), std::string::npos)
+      << test::read_file(log);
+  EXPECT_FALSE(fs::exists(dir / "bad.json"));
+  ASSERT_EQ(test::run({test::bin("ips"), "survey", "--session", (dir / "session").string(), "--references",
+                       (dir / "refs.yaml").string(), "--config", (dir / "ipsd.yaml").string(), "--out",
+                       (dir / "model.json").string()},
+                      log, limit),
+            0)
+      << test::read_file(log);
+  const ModelSet models = load_model_file(dir / "model.json");
+  for (const auto& cam : lab.scene.cameras) {
+    const Mapper* m = models.find(cam.name);
+    ASSERT_NE(m, nullptr) << cam.name;
+    // A floor point below the camera's true view, through the surveyed plane model.
+    const Eigen::Vector3d world(cam.position.x() + 0.3, cam.position.y() - 0.2, 0.1);
+    const Eigen::Vector3d p = m->predict(cam.world_to_camera(world), world.z());
+    EXPECT_LT((p - world).head<2>().norm(), 0.003) << cam.name;
+  }
+  fs::remove_all(dir);
+}
+
+// The scene's waypoint pause: the marker stands at each waypoint for `pause` seconds, then
+// moves at `speed` (what the survey tests' wand relies on).
+TEST(SurveySolve, SceneWaypointPauseHoldsTheMarkerStill) {
+  const fs::path dir = fs::temp_directory_path() / ("ips_survey_pause_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "s.yaml") << test::lab_scene(IPS_TEST_DATA_DIR, 1.0, 0.5);
+  const sim::Scene s = sim::Scene::load(dir / "s.yaml");
+  const auto pts = test::lab_wand_points();
+  const sim::MarkerPose a = s.marker_pose(30, 0.0), b = s.marker_pose(30, 0.99);
+  EXPECT_NEAR(a.x, pts[0].first, 1e-9);
+  EXPECT_NEAR(a.y, pts[0].second, 1e-9);
+  EXPECT_NEAR(b.x, a.x, 1e-12);
+  EXPECT_NEAR(b.yaw, a.yaw, 1e-12);
+  const double leg = std::hypot(pts[1].first - pts[0].first, pts[1].second - pts[0].second);
+  const sim::MarkerPose c = s.marker_pose(30, 1.5);  // 0.5 s after leaving: 0.25 m along
+  EXPECT_NEAR(std::hypot(c.x - a.x, c.y - a.y), 0.25, 1e-9);
+  const sim::MarkerPose d = s.marker_pose(30, 1.0 + leg / 0.5 + 0.5);  // pausing at point 1
+  EXPECT_NEAR(d.x, pts[1].first, 1e-9);
+  EXPECT_NEAR(d.y, pts[1].second, 1e-9);
+  fs::remove_all(dir);
 }
 
 }  // namespace
