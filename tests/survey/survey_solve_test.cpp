@@ -249,6 +249,17 @@ TEST(SurveySolve, CommandWritesPlaneModelAndRefusesAnotherConfig) {
                       log, limit),
             0)
       << test::read_file(log);
+  // `ips record` refuses to overwrite a session and a bad --seconds, before opening a camera.
+  EXPECT_EQ(test::run({test::bin("ips"), "record", "--config", (dir / "ipsd.yaml").string(), "--seconds", "5",
+                       "--out", (dir / "session").string()},
+                      log, limit),
+            2);
+  EXPECT_NE(test::read_file(log).find("already holds a session"), std::string::npos) << test::read_file(log);
+  EXPECT_EQ(test::run({test::bin("ips"), "record", "--config", (dir / "ipsd.yaml").string(), "--seconds", "0",
+                       "--out", (dir / "new").string()},
+                      log, limit),
+            2);
+  EXPECT_FALSE(fs::exists(dir / "new"));
   const ModelSet models = load_model_file(dir / "model.json");
   for (const auto& cam : lab.scene.cameras) {
     const Mapper* m = models.find(cam.name);
