@@ -141,19 +141,7 @@ int run(const Args& a) {
   context.synthetic_epoch_mono_ns = monotonic_ns();
   std::vector<CameraRun> cams;
   for (const CameraConfig* c : selected) {
-    CameraRun run;
-    run.name = c->name;
-    run.model = load_intrinsics(*c);
-    run.fps = c->fps;
-    run.edge_length = config.markers.sizes().length_of(a.marker);
-    run.detector = std::make_unique<Detector>(config.detection);
-    run.source = make_source_factory(*c, context)();
-    try {
-      run.source->open();
-    } catch (const SourceError& e) {
-      throw SourceError("camera " + c->name + ": " + e.what());
-    }
-    cams.push_back(std::move(run));
+    cams.push_back(open_camera(*c, config, context, config.markers.sizes().length_of(a.marker)));
   }
 
   std::string cam_names;

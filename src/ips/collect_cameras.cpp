@@ -8,6 +8,23 @@
 
 namespace ips::cli {
 
+CameraRun open_camera(const CameraConfig& c, const DaemonConfig& config, const SourceContext& context,
+                      double edge_length) {
+  CameraRun run;
+  run.name = c.name;
+  run.model = load_intrinsics(c);
+  run.fps = c.fps;
+  run.edge_length = edge_length;
+  run.detector = std::make_unique<Detector>(config.detection);
+  run.source = make_source_factory(c, context)();
+  try {
+    run.source->open();
+  } catch (const SourceError& e) {
+    throw SourceError("camera " + c.name + ": " + e.what());
+  }
+  return run;
+}
+
 Capture capture(CameraRun& c, int marker, int n, std::int64_t after_ns) {
   Capture out;
   const auto limit = std::chrono::duration<double>(std::max(10.0, 4.0 * n / c.fps));

@@ -10,8 +10,10 @@
 #include <Eigen/Core>
 
 #include "ips/camera_model.h"
+#include "ips/config.h"
 #include "ips/detector.h"
 #include "ips/frame_source.h"
+#include "ips/source_factory.h"
 
 namespace ips::cli {
 
@@ -24,6 +26,12 @@ struct CameraRun {
   double fps = 30.0;
   double edge_length = 0.2;
 };
+
+// Opens camera `c` of `config` as the daemon does: its intrinsics, the daemon's detector,
+// its frame source (opened). `edge_length` is the marker size the caller locates.
+// Throws ips::InputError (bad intrinsics/source options) or ips::SourceError naming the camera.
+CameraRun open_camera(const CameraConfig& c, const DaemonConfig& config, const SourceContext& context,
+                      double edge_length);
 
 struct Capture {
   std::vector<Eigen::Vector3d> samples;  // camera coordinates, one per frame the marker was in

@@ -126,7 +126,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
                            const std::filesystem::path& scene_dir, const MarkerPose& start) {
   r.only_keys(n, path,
               {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading",
-               "control"});
+               "control", "pause"});
   Trajectory t;
   const std::string type = r.text(n, path, "type", "");
   if (type == "placements") {
@@ -158,6 +158,8 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
     if ((t.points[1] - t.points[0]).norm() < 1e-9) r.fail(n["to"], path + "to", "equals 'from'");
   } else if (type == "waypoints") {
     t.kind = Trajectory::Kind::kWaypoints;
+    t.pause = r.number(n, path, "pause", 0.0, false);
+    if (!(t.pause >= 0)) r.fail(n["pause"], path + "pause", "must be >= 0 seconds");
     const YAML::Node pts = n["points"];
     if (!pts || !pts.IsSequence() || pts.size() < 2) {
       r.fail(pts ? pts : n, path + "points", "expected a list of at least 2 [x, y] points");
@@ -193,6 +195,27 @@ void along_polyline(const std::vector<Eigen::Vector2d>& pts, double s, Eigen::Ve
     }
     s -= len;
   }
+}
+
+// Arc length travelled at time t along a closed polyline at `speed`, stopping `pause`
+// seconds at every point (the first pause at t = 0 at points[0]).
+double arc_with_pauses(const std::vector<Eigen::Vector2d>& pts, double speed, double pause, double t) {
+  if (!(speed > 0)) return 0.0;
+  double total = 0.0;
+  for (std::size_t i = 0; i < pts.size(); ++i) total += (pts[(i + 1) % pts.size()] - pts[i]).norm();
+  const double cycle = total / speed + pause * static_cast<double>(pts.size());
+  t = std::fmod(t, cycle);
+  if (t < 0) t += cycle;
+  double s = 0.0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (t < pause) return s;
+    t -= pause;
+    const double len = (pts[(i + 1) % pts.size()] - pts[i]).norm();
+    if (t < len / speed) return s + speed * t;
+    t -= len / speed;
+    s += len;
+  }
+  return s;
 }
 
 // The index a placements control file holds, or -1 (missing, empty, not a whole number).
@@ -382,7 +405,7 @@ MarkerPose Scene::marker_pose_at(std::size_t index, double t) const {
       along_polyline(tr.points, s, pos, dir);
       break;
     case Trajectory::Kind::kWaypoints:
-      along_polyline(tr.points, s, pos, dir);
+      along_polyline(tr.points, tr.pause > 0 ? arc_with_pauses(tr.points, tr.speed, tr.pause, t) : s, pos, dir);
       break;
     case Trajectory::Kind::kPlacements: {
       const long placed = read_index(tr.control);

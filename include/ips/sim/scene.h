@@ -36,6 +36,7 @@ struct Trajectory {
   std::vector<Eigen::Vector2d>
       points;                        ///< line: {from, to} (back and forth); waypoints: closed loop
   bool heading_follows_path = true;  ///< yaw = direction of travel (+ yaw offset) else fixed yaw
+  double pause = 0.0;  ///< waypoints: the marker stops this long at each waypoint, seconds (a wand held still)
   /// placements: the marker is put down by hand at one of these poses at a time, the one whose
   /// 0-based index the `control` file holds (read at every pose query, so whoever plays the
   /// user moves the marker by rewriting the file); anything else in it (missing file, not an
