@@ -51,6 +51,8 @@ done
 echo "== demo: ipsd is running (pid $ipsd_pid, log $log); live positions follow."
 echo "   Its status, from another terminal: $bin/ips status --socket /tmp/ipsd-demo.sock"
 web_url=$(sed -n 's/.*web view on \(http[^ ]*\).*/\1/p' "$log" | head -n1)
-[[ -n "$web_url" ]] && echo "   Live view in a browser: $web_url  (floor map, camera views with detections, health)"
+if [[ -n "$web_url" ]]; then
+  echo "   Live view in a browser: $web_url  (floor map, camera views with detections, health)"
+fi
 echo "   Press Ctrl-C to stop."
 "$bin/ips" listen --bind 127.0.0.1:5005 --duration "$duration" || true
