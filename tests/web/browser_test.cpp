@@ -5,8 +5,7 @@
 // /status.json, the camera view's outlines where OpenCV finds the markers in the served frame.
 // Malformed and unknown requests get 4xx while the daemon keeps streaming.
 // Chromium and a daemon on three rendering cameras are too slow under the sanitizers: those
-// builds skip the browser and run only the request checks (the server's own handlers run
-// under ASan in web_server_test.cpp).
+// builds skip this suite (the server's own handlers run under ASan in web_server_test.cpp).
 #include <cmath>
 #include <map>
 #include <regex>
@@ -58,6 +57,8 @@ class WebBrowserTest : public ::testing::Test {
   }
 
   void SetUp() override {
+    if (kSanitized) GTEST_SKIP() << "Chromium and three rendering cameras are too slow under the sanitizers; "
+                                    "web_server_test.cpp runs the server's handlers there";
     port_ = test::free_tcp_port();
     const fs::path cfg = *dir_ / "ipsd.yaml";
     std::string c = "cameras:\n";
@@ -78,6 +79,7 @@ class WebBrowserTest : public ::testing::Test {
     while (monotonic_ns() < end && !ready()) std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   void TearDown() override {
+    if (pid_ < 0) return;
     ::kill(pid_, SIGTERM);
     EXPECT_EQ(test::wait_exit(pid_, std::chrono::seconds(10)), 0) << test::read_file(log_);
   }
@@ -137,7 +139,6 @@ std::vector<std::map<std::string, std::string>> elements(const std::string& dom,
 }
 
 TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem) {
-  if (kSanitized) GTEST_SKIP() << "Chromium + three rendering cameras are too slow under the sanitizers";
   ASSERT_TRUE(ready()) << test::read_file(log_);
   const auto before = nlohmann::json::parse(test::http_get(port_, "/status.json").body);
   // The page, in a real browser: it stops its stream after 12 marker updates (?updates=) so
@@ -205,7 +206,6 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
 }
 
 TEST_F(WebBrowserTest, CameraViewOutlinesTheDaemonsDetectionsWhereOpenCvFindsTheMarkers) {
-  if (kSanitized) GTEST_SKIP() << "three rendering cameras are too slow under the sanitizers";
   ASSERT_TRUE(ready()) << test::read_file(log_);
   const auto jpg = test::http_get(port_, "/camera/white.jpg");
   const auto plain = test::http_get(port_, "/camera/white.jpg?overlay=0");
@@ -268,6 +268,30 @@ TEST_F(WebBrowserTest, BadRequestsGet4xxAndTheDaemonKeepsStreaming) {
   EXPECT_GE(s["web"]["bad_requests"].get<int>(), 3) << s.dump();
   EXPECT_GE(s["web"]["clients_total"].get<int>(), 5);
   for (const auto& c : s["cameras"]) EXPECT_EQ(c["state"], "open");
+}
+
+}  // namespace
+}  // namespace ips
+
+namespace ips {
+namespace {
+
+TEST_F(WebBrowserTest, ABadOrBusyListenAddressStopsTheStartWithExitStatus2) {
+  // The fixture's daemon holds port_: a second one on the same address refuses to start.
+  const std::string good = test::read_file(*dir_ / "ipsd.yaml");
+  const std::string listen = "127.0.0.1:" + std::to_string(port_);
+  struct Case {
+    std::string name, listen;
+  } cases[] = {{"busy", listen}, {"no port", "127.0.0.1"}, {"not an address", "lab-pc:8080"}};
+  for (const auto& c : cases) {
+    std::string yaml = good;
+    yaml.replace(yaml.find(listen), listen.size(), c.listen);
+    const fs::path cfg = *dir_ / "bad_web.yaml", log = *dir_ / ("bad_web_" + std::to_string(&c - cases) + ".log");
+    std::ofstream(cfg) << yaml;
+    EXPECT_EQ(test::run({test::bin("ipsd"), "--config", cfg.string()}, log, std::chrono::seconds(30)), 2) << c.name;
+    EXPECT_NE(test::read_file(log).find("web.listen"), std::string::npos) << c.name << ": " << test::read_file(log);
+  }
+  EXPECT_EQ(test::http_get(port_, "/status.json").status, 200);  // the first daemon is unaffected
 }
 
 }  // namespace
