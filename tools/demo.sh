@@ -4,7 +4,7 @@
 #   2. fit the camera->world model once, on calibration pairs collected in the simulator
 #      (`ips sim collect` + `ips fit --method plane`, into build/demo/),
 #   3. run ipsd on config/demo.yaml (three synthetic cameras of the published lab, four robots)
-#      and show its UDP stream live with `ips listen`.
+#      and show its UDP stream live with `ips listen`; the web view is on (the URL is printed).
 # Usage: bash tools/demo.sh [SECONDS]     run until Ctrl-C, or for SECONDS
 # Ctrl-C (or the time limit) stops the listener and then the daemon; nothing is left running.
 set -euo pipefail
@@ -50,5 +50,9 @@ for _ in $(seq 1 300); do
 done
 echo "== demo: ipsd is running (pid $ipsd_pid, log $log); live positions follow."
 echo "   Its status, from another terminal: $bin/ips status --socket /tmp/ipsd-demo.sock"
+web_url=$(sed -n 's/.*web view on \(http[^ ]*\).*/\1/p' "$log" | head -n1)
+if [[ -n "$web_url" ]]; then
+  echo "   Live view in a browser: $web_url  (floor map, camera views with detections, health)"
+fi
 echo "   Press Ctrl-C to stop."
 "$bin/ips" listen --bind 127.0.0.1:5005 --duration "$duration" || true

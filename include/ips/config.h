@@ -176,6 +176,21 @@ struct StatusConfig {
   std::string socket;        ///< unix stream socket for `ips status`; "" = none
 };
 
+/// The web view (web.*; README "web"): off unless `listen` is set.
+struct WebConfig {
+  std::string listen;          ///< "host:port" as configured; "" = no web server
+  std::string host;            ///< IPv4 address to bind (from `listen`; "localhost" = 127.0.0.1)
+  int port = 0;                ///< TCP port (from `listen`)
+  double update_rate_hz = 20;  ///< fused updates per second sent to each browser, at most
+  double camera_fps = 5;       ///< camera view frames per second per camera, at most (taken only on request)
+  int image_width = 960;       ///< camera view JPEG width, pixels (frames are downscaled to it)
+  int max_clients = 32;        ///< live streams at once; more get 503
+  /// Floor outline drawn on the map: [xmin, ymin, xmax, ymax], metres; empty = none.
+  std::vector<double> floor;
+
+  bool operator==(const WebConfig&) const = default;
+};
+
 struct DaemonConfig {
   std::filesystem::path file;  ///< where it was loaded from (for messages)
   std::vector<CameraConfig> cameras;
@@ -187,6 +202,7 @@ struct DaemonConfig {
   std::vector<OutputConfig> outputs;
   std::string log_level = "info";  ///< trace | debug | info | warn | error
   StatusConfig status;
+  WebConfig web;
   double stall_timeout_s = 2.0;  ///< watchdog: a thread without progress this long withholds WATCHDOG=1
 };
 

@@ -106,6 +106,7 @@ void CameraWorker::process(ips::Frame& frame) {
   const ips::CameraModel& intrinsics = rt->intrinsics[static_cast<std::size_t>(index)];
   const std::int64_t t0 = ips::monotonic_ns();
   const auto detections = detector_->detect(frame.gray, &intrinsics);
+  if (tap_ && tap_->wanted()) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
   ips::FrameObservations batch;
   batch.camera_index = index;
   // cameras[].timestamp_offset: the source's stamp -> mid exposure (README "Time").

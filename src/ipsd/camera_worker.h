@@ -8,6 +8,7 @@
 
 #include "ips/detector.h"
 #include "ips/source_supervisor.h"
+#include "ips/web.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -22,6 +23,8 @@ class CameraWorker {
   bool open_first();
   const ips::SourceSupervisor& supervisor() const { return supervisor_; }
 
+  /// The web view's hand-over point (before start(); none without a web view).
+  void set_tap(std::shared_ptr<ips::FrameTap> tap) { tap_ = std::move(tap); }
   void start();
   void request_stop() { stop_ = true; }
   void join();
@@ -36,6 +39,7 @@ class CameraWorker {
   ObservationQueue& queue_;
   CameraStats& stats_;
   std::unique_ptr<ips::Detector> detector_;  // used by the camera thread only
+  std::shared_ptr<ips::FrameTap> tap_;  // web view: a frame is copied only when a page asked
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

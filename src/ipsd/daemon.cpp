@@ -14,6 +14,7 @@
 #include "ips/clock.h"
 #include "ips/error.h"
 #include "ips/source_factory.h"
+#include "web_link.h"
 
 namespace ipsd {
 
@@ -74,6 +75,12 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
     }
   }
   p->fusion = std::make_unique<FusionWorker>(runtime_, p->queue, p->camera_ptrs, p->fusion_stats);
+  if (web_) {
+    const auto taps = web_->set_cameras(p->names);
+    for (std::size_t i = 0; i < p->cameras.size(); ++i) p->cameras[i]->set_tap(taps[i]);
+    p->fusion->set_web(web_.get());
+    web_->set_layout(web_layout(*runtime_.get()));
+  }
   p->fusion->start();
   for (auto& c : p->cameras) c->start();
   pipeline_ = std::move(p);
@@ -105,8 +112,10 @@ void Daemon::reload() {
       status_socket_.reset();
       if (socket) status_socket_ = std::move(socket);
     }
+    if (config.web != old->config.web) spdlog::warn("reload: web.* changes take effect when ipsd restarts");
     if (config.cameras == old->config.cameras) {
       runtime_.set(fresh);  // the threads pick it up at their next frame
+      if (web_) web_->set_layout(web_layout(*fresh));
       spdlog::info("reload: applied {} (model file {})", config_path_.string(), config.model_file.string());
     } else {
       auto factories = make_factories(config);  // may refuse the new cameras: nothing stopped yet
@@ -129,6 +138,7 @@ void Daemon::tick(std::int64_t now) {
     next_sample_ns_ = now + kSampleNs;
     p.rates.sample(p.camera_ptrs, p.names, p.fusion_stats, now);
     sd_notify(0, ("STATUS=" + systemd_status(p.rates)).c_str());
+    if (web_) web_->set_status(status_document().dump());
   }
   const double interval = rt->config.status.interval_s;
   if (now >= next_status_log_ns_) {
@@ -158,6 +168,13 @@ void Daemon::tick(std::int64_t now) {
   }
 }
 
+nlohmann::json Daemon::status_document() {
+  auto j = status_json(pipeline_->rates, pipeline_->fusion_stats, pipeline_->queue.dropped(), *runtime_.get(),
+                       started_ns_, synthetic_epoch_ns_);
+  if (web_) j["web"] = web_counters_json(web_->counters());
+  return j;
+}
+
 int Daemon::run() {
   // Signals are taken synchronously through a signalfd on this thread: block them before any
   // thread starts so that every thread inherits the mask.
@@ -172,6 +189,14 @@ int Daemon::run() {
 
   started_ns_ = ips::monotonic_ns();
   synthetic_epoch_ns_ = started_ns_;
+  if (const auto& w = runtime_.get()->config.web; !w.listen.empty()) {
+    try {
+      web_ = std::make_unique<ips::WebServer>(w, runtime_.get()->config.markers.dictionary);
+    } catch (...) {
+      ::close(sfd);
+      throw;
+    }
+  }
   if (!start_pipeline(runtime_.get(), make_factories(runtime_.get()->config), true)) {
     ::close(sfd);
     return 1;
@@ -210,14 +235,15 @@ int Daemon::run() {
     if (rc > 0 && status_socket_ && (fds[1].revents & POLLIN)) {
       pipeline_->rates.sample(pipeline_->camera_ptrs, pipeline_->names, pipeline_->fusion_stats, now);
       next_sample_ns_ = now + kSampleNs;
-      const auto j = status_json(pipeline_->rates, pipeline_->fusion_stats, pipeline_->queue.dropped(),
-                                 *runtime_.get(), started_ns_, synthetic_epoch_ns_);
+      const auto j = status_document();
       status_socket_->serve(j.dump() + "\n");
+      if (web_) web_->set_status(j.dump());
     }
     if (running) tick(now);
   }
   sd_notify(0, "STOPPING=1");
   stop_pipeline();
+  web_.reset();
   ::close(sfd);
   spdlog::info("stopped");
   return 0;

@@ -11,6 +11,7 @@
 
 #include "camera_worker.h"
 #include "fusion_worker.h"
+#include "ips/web.h"
 #include "pipeline.h"
 #include "status.h"
 
@@ -42,11 +43,14 @@ class Daemon {
   void stop_pipeline();
   void reload();
   void tick(std::int64_t now);
+  /// The status document of `ips status --json` and /status.json (sampled now).
+  nlohmann::json status_document();
 
   std::filesystem::path config_path_;
   RuntimeHolder runtime_;
   std::unique_ptr<Pipeline> pipeline_;
   std::optional<StatusSocket> status_socket_;
+  std::unique_ptr<ips::WebServer> web_;  // web view (web.listen), started by run()
   std::int64_t started_ns_ = 0;
   std::int64_t synthetic_epoch_ns_ = 0;
   std::int64_t next_sample_ns_ = 0;

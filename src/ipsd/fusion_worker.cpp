@@ -132,6 +132,7 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, std::int
     d.markers.push_back(m);
   }
   rt.publisher->publish(d);
+  if (web_) web_->publish(d);  // a copy into a bounded inbox; never waits for browsers
   const std::int64_t sent = ips::monotonic_ns();  // after the last sendto of the update
   if (t_delivered_ns > 0) stats_.latency.add(sent - t_delivered_ns, sent - t_mono_ns);
   ++stats_.updates;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "ips/track_fusion.h"
+#include "ips/web.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -17,6 +18,8 @@ class FusionWorker {
  public:
   FusionWorker(RuntimeHolder& runtime, ObservationQueue& queue, std::vector<CameraStats*> cameras, FusionStats& stats);
   ~FusionWorker();
+  /// The web view gets a copy of every update (before start(); nullptr = none).
+  void set_web(ips::WebServer* web) { web_ = web; }
   void start();
   void request_stop() { stop_ = true; }
   void join();
@@ -30,6 +33,7 @@ class FusionWorker {
   ObservationQueue& queue_;
   std::vector<CameraStats*> cameras_;
   FusionStats& stats_;
+  ips::WebServer* web_ = nullptr;
   std::atomic<bool> stop_{false};
   std::thread thread_;
   std::uint32_t update_ = 0;

@@ -1,0 +1,51 @@
+#include "web_link.h"
+
+#include <cmath>
+
+#include "ips/mapper.h"
+
+namespace ipsd {
+
+std::string web_layout(const Runtime& rt) {
+  const ips::DaemonConfig& config = rt.config;
+  nlohmann::json j;
+  j["floor"] = config.web.floor.size() == 4 ? nlohmann::json(config.web.floor) : nlohmann::json(nullptr);
+  j["update_rate"] = config.web.update_rate_hz;
+  j["camera_fps"] = config.web.camera_fps;
+  j["cameras"] = nlohmann::json::array();
+  for (const auto& cam : config.cameras) {
+    const auto i = static_cast<std::size_t>(cam.index);
+    const ips::Mapper& mapper = *rt.mappers[i];
+    nlohmann::json c{{"name", cam.name}, {"index", cam.index}, {"fps", cam.fps}, {"mapper", mapper.method()}};
+    // The floor the markers lie on: the markers' default height (0 if unknown).
+    const double z = std::isnan(config.markers.height) ? 0.0 : config.markers.height;
+    nlohmann::json footprint = nlohmann::json::array();
+    for (const auto& p : ips::camera_footprint(rt.intrinsics[i], mapper, z)) footprint.push_back({p.x(), p.y()});
+    c["footprint"] = footprint;
+    Eigen::Vector3d origin, dir;
+    c["position"] = mapper.world_ray(Eigen::Vector3d(0, 0, 1), origin, dir)
+                        ? nlohmann::json({origin.x(), origin.y(), origin.z()})
+                        : nlohmann::json(nullptr);
+    nlohmann::json controls = nlohmann::json::object();
+    if (cam.auto_exposure) controls["auto_exposure"] = *cam.auto_exposure;
+    if (cam.exposure_s) controls["exposure_s"] = *cam.exposure_s;
+    if (cam.gain) controls["gain"] = *cam.gain;
+    if (cam.autofocus) controls["autofocus"] = *cam.autofocus;
+    if (cam.power_line_hz) controls["power_line_hz"] = *cam.power_line_hz;
+    c["controls"] = controls;
+    c["size"] = {rt.intrinsics[i].size().width, rt.intrinsics[i].size().height};
+    j["cameras"].push_back(c);
+  }
+  j["markers"] = nlohmann::json::object();
+  for (const auto& [id, info] : config.markers.ids)
+    if (!info.name.empty()) j["markers"][std::to_string(id)] = info.name;
+  return j.dump();
+}
+
+nlohmann::json web_counters_json(const ips::WebCounters& c) {
+  return {{"clients", c.clients},   {"clients_total", c.clients_total}, {"refused", c.refused},
+          {"messages", c.messages}, {"dropped", c.dropped},             {"inbox_dropped", c.inbox_dropped},
+          {"frames", c.frames},     {"bad_requests", c.bad_requests}};
+}
+
+}  // namespace ipsd

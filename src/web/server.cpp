@@ -1,0 +1,261 @@
+// CivetWeb glue: one catch-all request handler routes with route_request(); CivetWeb itself
+// answers requests it cannot parse (400) and bounds the threads (num_threads = max_clients +
+// 8, so that streams never starve the page, the JSON and the camera images).
+#include <civetweb.h>
+
+#include <chrono>
+#include <cstring>
+#include <mutex>
+
+#include <spdlog/spdlog.h>
+
+#include "ips/clock.h"
+#include "ips/error.h"
+#include "ips/web.h"
+#include "stream_hub.h"
+
+namespace ips {
+
+namespace {
+// A camera that delivers nothing within this time gets a 503 (down, or stopped).
+constexpr std::int64_t kFrameWaitNs = 1'000'000'000;
+// Stream keep-alive comment period: also how soon a vanished client is noticed.
+constexpr int kKeepAliveMs = 1000;
+
+struct ViewCache {
+  std::mutex mutex;  // one encoder per camera at a time; concurrent viewers share its result
+  std::int64_t made_ns = 0;
+  std::shared_ptr<const CameraView> view;
+};
+
+struct CameraEntry {
+  std::shared_ptr<FrameTap> tap;
+  std::shared_ptr<ViewCache> cache;
+};
+
+int send(mg_connection* conn, int status, const char* mime, const std::string& body, const char* extra = "") {
+  mg_printf(conn,
+            "HTTP/1.1 %d %s\r\nContent-Type: %s\r\nContent-Length: %zu\r\nCache-Control: no-store\r\n"
+            "X-Content-Type-Options: nosniff\r\n%sConnection: close\r\n\r\n",
+            status, mg_get_response_code_text(conn, status), mime, body.size(), extra);
+  mg_write(conn, body.data(), body.size());
+  return status;
+}
+}  // namespace
+
+struct WebServer::Impl {
+  WebConfig config;
+  std::string dictionary;
+  mg_context* ctx = nullptr;
+  web::StreamHub hub;
+  std::mutex mutex;  // layout, status, cameras
+  std::string layout_text = "{}", status_text = "{}";
+  std::map<std::string, CameraEntry> cameras;
+  std::atomic<std::uint64_t> frames{0}, bad_requests{0}, messages{0};
+  std::string start_error;
+
+  Impl(const WebConfig& c, std::string dict) : config(c), dictionary(std::move(dict)), hub(c.update_rate_hz) {}
+
+  int error(mg_connection* conn, int status, const std::string& what) {
+    ++bad_requests;
+    return send(conn, status, "text/plain; charset=utf-8", what + "\n");
+  }
+
+  int handle(mg_connection* conn) {
+    const mg_request_info* ri = mg_get_request_info(conn);
+    const std::string method = ri->request_method ? ri->request_method : "";
+    const std::string path = ri->local_uri ? ri->local_uri : "";
+    const std::string query = ri->query_string ? ri->query_string : "";
+    Route r = route_request(method, path);
+    // Read-only: a request with a body (or a body length that is no number) is malformed here.
+    const char* length = mg_get_header(conn, "Content-Length");
+    if (r.kind != Route::Kind::kBadMethod && ((length && std::strcmp(length, "0") != 0) ||
+                                              mg_get_header(conn, "Transfer-Encoding")))
+      r.kind = Route::Kind::kBadRequest;
+    switch (r.kind) {
+      case Route::Kind::kBadRequest:
+        return error(conn, 400, "bad request (path, or a body on a GET)");
+      case Route::Kind::kBadMethod:
+        return error(conn, 405, "read-only: only GET is served");
+      case Route::Kind::kNotFound:
+        return error(conn, 404, "no such page: " + path);
+      case Route::Kind::kPage:
+      case Route::Kind::kAsset: {
+        const Asset* a = find_asset(r.kind == Route::Kind::kPage ? "index.html" : r.name);
+        if (!a) return error(conn, 404, "no such asset: " + r.name);
+        return send(conn, 200, a->mime, std::string(reinterpret_cast<const char*>(a->data), a->size));
+      }
+      case Route::Kind::kStatus: {
+        std::string body;
+        {
+          std::lock_guard lock(mutex);
+          body = status_text;
+        }
+        return send(conn, 200, "application/json", body + "\n");
+      }
+      case Route::Kind::kLayout: {
+        std::string body;
+        {
+          std::lock_guard lock(mutex);
+          body = layout_text;
+        }
+        return send(conn, 200, "application/json", body + "\n");
+      }
+      case Route::Kind::kEvents:
+        return stream(conn);
+      case Route::Kind::kCameraJpeg:
+      case Route::Kind::kCameraJson:
+        return camera(conn, r, query);
+    }
+    return error(conn, 500, "unrouted");
+  }
+
+  int stream(mg_connection* conn) {
+    auto client = hub.subscribe(static_cast<std::size_t>(config.max_clients));
+    if (!client) return error(conn, 503, "too many live streams (web.max_clients)");
+    mg_printf(conn,
+              "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n"
+              "Connection: close\r\n\r\nretry: 1000\n\n");
+    // This HTTP thread is the client's writer: a slow reader blocks only here (CivetWeb's
+    // request_timeout_ms bounds a write), its queue overflows, the hub counts the drops.
+    static const std::string keepalive = ": keep-alive\n\n";
+    for (;;) {
+      const web::Message m = client->pop(kKeepAliveMs);
+      const std::string& text = m ? *m : keepalive;
+      if (!m && client->closed()) break;  // the server is stopping
+      if (mg_write(conn, text.data(), text.size()) <= 0) break;  // gone (reset, closed, timed out)
+      if (m) ++messages;
+    }
+    hub.unsubscribe(client);
+    return 200;
+  }
+
+  int camera(mg_connection* conn, const Route& r, const std::string& query) {
+    CameraEntry entry;
+    {
+      std::lock_guard lock(mutex);
+      const auto it = cameras.find(r.name);
+      if (it == cameras.end()) return error(conn, 404, "no camera named '" + r.name + "'");
+      entry = it->second;
+    }
+    std::shared_ptr<const CameraView> view;
+    {
+      std::lock_guard lock(entry.cache->mutex);
+      const std::int64_t now = monotonic_ns();
+      const auto min_interval = static_cast<std::int64_t>(1e9 / config.camera_fps);
+      // .json after .jpg (the page and the tests read both) must describe the same frame:
+      // only a .jpg request takes a new frame.
+      const bool fresh = entry.cache->view && (r.kind == Route::Kind::kCameraJson || now - entry.cache->made_ns < min_interval);
+      if (!fresh) {
+        const auto snapshot = entry.tap->request(kFrameWaitNs);
+        if (snapshot) {
+          entry.cache->view = std::make_shared<const CameraView>(
+              render_camera_view(r.name, *snapshot, config.image_width, dictionary));
+          entry.cache->made_ns = monotonic_ns();
+          ++frames;
+        }
+      }
+      view = entry.cache->view;
+    }
+    if (!view) return error(conn, 503, "camera '" + r.name + "' delivers no frames");
+    if (r.kind == Route::Kind::kCameraJson) return send(conn, 200, "application/json", view->info + "\n");
+    const bool plain = query.find("overlay=0") != std::string::npos;
+    return send(conn, 200, "image/jpeg", plain ? view->plain_jpeg : view->jpeg);
+  }
+};
+
+namespace {
+int handle_request(mg_connection* conn, void* data) {
+  auto* impl = static_cast<WebServer::Impl*>(data);
+  try {
+    return impl->handle(conn);
+  } catch (const std::exception& e) {
+    spdlog::warn("web: {}", e.what());
+    return send(conn, 500, "text/plain", std::string("internal error: ") + e.what() + "\n");
+  }
+}
+
+int log_message(const mg_connection* conn, const char* message) {
+  if (auto* impl = static_cast<WebServer::Impl*>(mg_get_user_data(mg_get_context(conn)))) {
+    if (impl->ctx == nullptr) impl->start_error = message;  // while starting: why it failed
+  }
+  spdlog::debug("web: {}", message);
+  return 1;
+}
+
+std::once_flag library_once;
+}  // namespace
+
+WebServer::WebServer(const WebConfig& config, const std::string& dictionary)
+    : impl_(std::make_unique<Impl>(config, dictionary)) {
+  std::call_once(library_once, [] { mg_init_library(0); });
+  const std::string listen = config.host + ":" + std::to_string(config.port);
+  const std::string threads = std::to_string(config.max_clients + 8);
+  const char* options[] = {"listening_ports", listen.c_str(), "num_threads", threads.c_str(),
+                           "request_timeout_ms", "10000", "enable_keep_alive", "no",
+                           "enable_directory_listing", "no", nullptr};
+  mg_callbacks callbacks{};
+  callbacks.log_message = log_message;
+  mg_init_data init{};
+  init.callbacks = &callbacks;
+  init.user_data = impl_.get();
+  init.configuration_options = options;
+  char text[256] = "";
+  unsigned code = 0;
+  mg_error_data err{&code, text, sizeof text};
+  impl_->ctx = mg_start2(&init, &err);
+  if (!impl_->ctx) {
+    impl_->hub.stop();
+    throw InputError("web.listen: cannot serve on " + listen + ": " + (text[0] ? text : impl_->start_error));
+  }
+  mg_set_request_handler(impl_->ctx, "/", handle_request, impl_.get());
+  mg_server_port ports[4] = {};
+  const int n = mg_get_server_ports(impl_->ctx, 4, ports);
+  port_ = n > 0 ? ports[0].port : config.port;
+  spdlog::info("web view on http://{}:{}/", config.host, port_);
+}
+
+WebServer::~WebServer() {
+  impl_->hub.stop();        // closes every stream's queue: their threads return
+  mg_stop(impl_->ctx);      // waits for every request thread
+}
+
+std::vector<std::shared_ptr<FrameTap>> WebServer::set_cameras(const std::vector<std::string>& names) {
+  std::vector<std::shared_ptr<FrameTap>> taps;
+  std::lock_guard lock(impl_->mutex);
+  impl_->cameras.clear();
+  for (const auto& n : names) {
+    CameraEntry e{std::make_shared<FrameTap>(), std::make_shared<ViewCache>()};
+    impl_->cameras[n] = e;
+    taps.push_back(e.tap);
+  }
+  return taps;
+}
+
+void WebServer::set_layout(std::string json) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->layout_text = std::move(json);
+}
+
+void WebServer::set_status(std::string json) {
+  impl_->hub.set_status(json);
+  std::lock_guard lock(impl_->mutex);
+  impl_->status_text = std::move(json);
+}
+
+void WebServer::publish(const Datagram& update) { impl_->hub.publish(update); }
+
+WebCounters WebServer::counters() const {
+  WebCounters c;
+  c.clients = impl_->hub.clients();
+  c.clients_total = impl_->hub.clients_total;
+  c.refused = impl_->hub.refused;
+  c.messages = impl_->messages;
+  c.dropped = impl_->hub.dropped;
+  c.inbox_dropped = impl_->hub.inbox_dropped;
+  c.frames = impl_->frames;
+  c.bad_requests = impl_->bad_requests;
+  return c;
+}
+
+}  // namespace ips
