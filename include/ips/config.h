@@ -16,6 +16,7 @@
 #include "ips/kalman.h"
 #include "ips/marker_geometry.h"
 #include "ips/packet_codec.h"
+#include "ips/tracker.h"
 
 namespace ips {
 
@@ -124,6 +125,8 @@ struct DaemonConfig {
   MarkerConfig markers;
   /// detection: the detector's tuning; `dictionary` is copied from markers.dictionary.
   DetectorOptions detection;
+  /// detection.tracking / full_search_period / roi_margin: tracking between frames (#12).
+  TrackerOptions tracking;
   std::filesystem::path model_file;  ///< required
   FusionConfig fusion;
   std::vector<OutputConfig> outputs;

@@ -8,6 +8,7 @@
 
 #include "ips/detector.h"
 #include "ips/source_supervisor.h"
+#include "ips/tracker.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -36,6 +37,7 @@ class CameraWorker {
   ObservationQueue& queue_;
   CameraStats& stats_;
   std::unique_ptr<ips::Detector> detector_;  // used by the camera thread only
+  std::unique_ptr<ips::DetectionTracker> tracker_;  // ditto; detection.tracking (#12)
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
