@@ -90,6 +90,7 @@ class DetectionTracker {
     std::int64_t frame = 0;    ///< frame index of the last sighting
   };
   void update(const std::vector<MarkerDetection>& found, bool full);
+  double reach(const Track& t) const;
 
   TrackerOptions options_;
   int phase_ = 0;

@@ -117,12 +117,11 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
     const auto elapsed = static_cast<double>(frame_ - t.frame);
     const Point2 c0 = centre(t.last);
     const Point2 predicted{c0.x + t.velocity.x * elapsed, c0.y + t.velocity.y * elapsed};
-    const double reach = (options_.roi_margin + 1) * side(t.last) +
-                         std::hypot(t.velocity.x, t.velocity.y) * elapsed + kMinMarginPx;
+    const double r = reach(t);
     bool found = false;
     for (std::size_t i = 0; i < out.size() && !found; ++i) {
       const Point2 c = centre(out[i]);
-      if (!used[i] && out[i].id == t.last.id && std::hypot(c.x - predicted.x, c.y - predicted.y) <= reach) {
+      if (!used[i] && out[i].id == t.last.id && std::hypot(c.x - predicted.x, c.y - predicted.y) <= r) {
         used[i] = found = true;
       }
     }
@@ -142,6 +141,13 @@ std::vector<MarkerDetection> DetectionTracker::track(Detector& detector, const c
   std::vector<MarkerDetection> out;
   if (!detect(detector, gray, plan(gray.size()), camera, out)) detect(detector, gray, TrackPlan{}, camera, out);
   return out;
+}
+
+double DetectionTracker::reach(const Track& t) const {
+  // How far from its prediction a tracked marker's centre may be found: its ROI.
+  const auto elapsed = static_cast<double>(frame_ - t.frame);
+  return (options_.roi_margin + 1) * side(t.last) + std::hypot(t.velocity.x, t.velocity.y) * elapsed +
+         kMinMarginPx;
 }
 
 void DetectionTracker::update(const std::vector<MarkerDetection>& found, bool full) {
@@ -169,6 +175,10 @@ void DetectionTracker::update(const std::vector<MarkerDetection>& found, bool fu
     Track t;
     t.last = d;
     t.frame = frame_;
+    if (best < tracks_.size() && best_dist > reach(tracks_[best])) {
+      matched[best] = true;  // found by the full search far from its prediction (it jumped):
+      best = tracks_.size();  // its motion so far says nothing about the next frame
+    }
     if (best < tracks_.size()) {
       matched[best] = true;
       const Point2 c0 = centre(tracks_[best].last);
