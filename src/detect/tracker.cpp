@@ -80,14 +80,15 @@ TrackPlan DetectionTracker::plan(cv::Size image) const {
     r &= whole;
     if (r.width >= 8 && r.height >= 8) p.rois.push_back(r);
   }
-  // Overlapping or touching ROIs become their bounding box: a marker is then wholly inside
-  // exactly one ROI and found once.
+  // Two ROIs become their bounding box when that is no larger than the two together (a
+  // marker close to another); otherwise they stay apart, overlap or not (markers in lanes
+  // side by side: the bounding box of a row of ROIs is mostly floor), and a marker found in
+  // two is reported once (detect()).
   for (bool merged = true; merged;) {
     merged = false;
     for (std::size_t i = 0; i < p.rois.size() && !merged; ++i) {
       for (std::size_t j = i + 1; j < p.rois.size() && !merged; ++j) {
-        const cv::Rect a(p.rois[i].x - 1, p.rois[i].y - 1, p.rois[i].width + 2, p.rois[i].height + 2);
-        if ((a & p.rois[j]).area() > 0) {
+        if ((p.rois[i] | p.rois[j]).area() <= p.rois[i].area() + p.rois[j].area()) {
           p.rois[i] |= p.rois[j];
           p.rois.erase(p.rois.begin() + static_cast<std::ptrdiff_t>(j));
           merged = true;
@@ -107,8 +108,15 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
     return true;
   }
   for (const auto& r : plan.rois) {
-    auto found = detector.detect(gray, r, camera);
-    out.insert(out.end(), found.begin(), found.end());
+    for (const auto& d : detector.detect(gray, r, camera)) {
+      // Overlapping ROIs: the same marker (same id, same place) found twice is kept once.
+      const Point2 c = centre(d);
+      const bool seen = std::any_of(out.begin(), out.end(), [&](const MarkerDetection& o) {
+        const Point2 co = centre(o);
+        return o.id == d.id && std::hypot(co.x - c.x, co.y - c.y) < 0.25 * side(d);
+      });
+      if (!seen) out.push_back(d);
+    }
   }
   // Every tracked marker must be found again near its prediction; otherwise the frame is
   // searched in full (the caller decodes it whole if it decoded only the ROIs).
