@@ -48,8 +48,8 @@ struct TrackerOptions {
 
 /// What to search in the next frame.
 struct TrackPlan {
-  bool full = true;             ///< the whole image
-  std::vector<cv::Rect> rois;   ///< otherwise these rectangles (clipped, 16-px aligned; may overlap)
+  bool full = true;            ///< the whole image
+  std::vector<cv::Rect> rois;  ///< otherwise these rectangles (clipped, 16-px aligned; may overlap)
 };
 
 class DetectionTracker {
@@ -86,9 +86,9 @@ class DetectionTracker {
 
  private:
   struct Track {
-    MarkerDetection last;      ///< corners at the last sighting
-    Point2 velocity{0, 0};     ///< centre motion per frame, px
-    std::int64_t frame = 0;    ///< frame index of the last sighting
+    MarkerDetection last;    ///< corners at the last sighting
+    Point2 velocity{0, 0};   ///< centre motion per frame, px
+    std::int64_t frame = 0;  ///< frame index of the last sighting
   };
   void update(const std::vector<MarkerDetection>& found, bool full);
   double reach(const Track& t) const;

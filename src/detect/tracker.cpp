@@ -49,7 +49,8 @@ DetectionTracker::DetectionTracker(const TrackerOptions& options, int phase) : o
   if (!(options_.roi_margin >= 0.25) || !std::isfinite(options_.roi_margin)) {
     throw InputError("tracker: roi_margin must be at least 0.25 marker sides");
   }
-  phase_ = ((phase % options_.full_search_period) + options_.full_search_period) % options_.full_search_period;
+  phase_ = ((phase % options_.full_search_period) + options_.full_search_period) %
+           options_.full_search_period;
 }
 
 void DetectionTracker::reset() {
@@ -59,7 +60,8 @@ void DetectionTracker::reset() {
 
 TrackPlan DetectionTracker::plan(cv::Size image) const {
   TrackPlan p;
-  if (!options_.enabled || force_full_ || (frame_ + phase_) % options_.full_search_period == 0) return p;
+  if (!options_.enabled || force_full_ || (frame_ + phase_) % options_.full_search_period == 0)
+    return p;
   p.full = false;
   const cv::Rect whole(0, 0, image.width, image.height);
   for (const auto& t : tracks_) {
@@ -100,7 +102,7 @@ TrackPlan DetectionTracker::plan(cv::Size image) const {
 }
 
 bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const TrackPlan& plan,
-                           const CameraModel* camera, std::vector<MarkerDetection>& out) {
+                              const CameraModel* camera, std::vector<MarkerDetection>& out) {
   out.clear();
   if (plan.full) {
     out = detector.detect(gray, camera);
@@ -129,7 +131,8 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
     bool found = false;
     for (std::size_t i = 0; i < out.size() && !found; ++i) {
       const Point2 c = centre(out[i]);
-      if (!used[i] && out[i].id == t.last.id && std::hypot(c.x - predicted.x, c.y - predicted.y) <= r) {
+      if (!used[i] && out[i].id == t.last.id &&
+          std::hypot(c.x - predicted.x, c.y - predicted.y) <= r) {
         used[i] = found = true;
       }
     }
@@ -145,17 +148,18 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
 }
 
 std::vector<MarkerDetection> DetectionTracker::track(Detector& detector, const cv::Mat& gray,
-                                                  const CameraModel* camera) {
+                                                     const CameraModel* camera) {
   std::vector<MarkerDetection> out;
-  if (!detect(detector, gray, plan(gray.size()), camera, out)) detect(detector, gray, TrackPlan{}, camera, out);
+  if (!detect(detector, gray, plan(gray.size()), camera, out))
+    detect(detector, gray, TrackPlan{}, camera, out);
   return out;
 }
 
 double DetectionTracker::reach(const Track& t) const {
   // How far from its prediction a tracked marker's centre may be found: its ROI.
   const auto elapsed = static_cast<double>(frame_ - t.frame);
-  return (options_.roi_margin + 1) * side(t.last) + std::hypot(t.velocity.x, t.velocity.y) * elapsed +
-         kMinMarginPx;
+  return (options_.roi_margin + 1) * side(t.last) +
+         std::hypot(t.velocity.x, t.velocity.y) * elapsed + kMinMarginPx;
 }
 
 void DetectionTracker::update(const std::vector<MarkerDetection>& found, bool full) {
@@ -184,13 +188,14 @@ void DetectionTracker::update(const std::vector<MarkerDetection>& found, bool fu
     t.last = d;
     t.frame = frame_;
     if (best < tracks_.size() && best_dist > reach(tracks_[best])) {
-      matched[best] = true;  // found by the full search far from its prediction (it jumped):
+      matched[best] = true;   // found by the full search far from its prediction (it jumped):
       best = tracks_.size();  // its motion so far says nothing about the next frame
     }
     if (best < tracks_.size()) {
       matched[best] = true;
       const Point2 c0 = centre(tracks_[best].last);
-      const auto elapsed = static_cast<double>(std::max<std::int64_t>(1, frame_ - tracks_[best].frame));
+      const auto elapsed =
+          static_cast<double>(std::max<std::int64_t>(1, frame_ - tracks_[best].frame));
       t.velocity = {(c.x - c0.x) / elapsed, (c.y - c0.y) / elapsed};
     }
     next.push_back(t);

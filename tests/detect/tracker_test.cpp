@@ -89,14 +89,16 @@ struct Sequence {
 double corner_error(const ips::MarkerDetection& d, const ips::sim::MarkerTruth& t) {
   double e = 0;
   for (std::size_t k = 0; k < 4; ++k)
-    e = std::max(e, std::hypot(d.corners_px[k].x - t.corners_px[k].x, d.corners_px[k].y - t.corners_px[k].y));
+    e = std::max(e, std::hypot(d.corners_px[k].x - t.corners_px[k].x,
+                               d.corners_px[k].y - t.corners_px[k].y));
   return e;
 }
 
 double side_px(const ips::sim::MarkerTruth& t) {
   double s = 0;
   for (std::size_t k = 0; k < 4; ++k)
-    s += std::hypot(t.corners_px[(k + 1) % 4].x - t.corners_px[k].x, t.corners_px[(k + 1) % 4].y - t.corners_px[k].y);
+    s += std::hypot(t.corners_px[(k + 1) % 4].x - t.corners_px[k].x,
+                    t.corners_px[(k + 1) % 4].y - t.corners_px[k].y);
   return s / 4;
 }
 
@@ -110,10 +112,12 @@ const ips::MarkerDetection* find(const std::vector<ips::MarkerDetection>& found,
 void expect_true_markers(const std::vector<ips::MarkerDetection>& found,
                          const std::vector<ips::sim::MarkerTruth>& truth, int f) {
   for (const auto& d : found) {
-    const auto t = std::find_if(truth.begin(), truth.end(), [&](const auto& x) { return x.id == d.id; });
+    const auto t =
+        std::find_if(truth.begin(), truth.end(), [&](const auto& x) { return x.id == d.id; });
     ASSERT_NE(t, truth.end()) << "frame " << f << ": marker " << d.id << " is not in the scene";
     // 0.5 px for 20 cm markers; 1 px for 7.5 cm ones at the edge of the view (24-35 px).
-    EXPECT_LT(corner_error(d, *t), side_px(*t) > 40 ? 0.5 : 1.0) << "frame " << f << " marker " << d.id;
+    EXPECT_LT(corner_error(d, *t), side_px(*t) > 40 ? 0.5 : 1.0)
+        << "frame " << f << " marker " << d.id;
   }
 }
 
@@ -136,9 +140,18 @@ TEST(Tracker, MarkerAppearingMidSequenceIsAcquiredWithinThePeriod) {
   const auto& C = r.camera().position;
   Sequence seq{r, {}};
   seq.movers.push_back({.id = 3, .x = C.x() - 0.6, .y = C.y() - 0.3, .vx = 1.0, .turn = 1.0});
-  seq.movers.push_back({.id = 11, .x = C.x() + 0.5, .y = C.y() + 0.4, .vy = -0.3, .from = 7});  // worst case: next full at 12
-  seq.movers.push_back({.id = 25, .x = C.x() - 0.9, .y = C.y() + 0.5, .vx = 0.5, .from = 11});  // best: full at 12
-  seq.movers.push_back({.id = 42, .length = 0.075, .x = C.x() + 1.6, .y = C.y() - 0.8, .from = 14});  // small, at the edge
+  seq.movers.push_back({.id = 11,
+                        .x = C.x() + 0.5,
+                        .y = C.y() + 0.4,
+                        .vy = -0.3,
+                        .from = 7});  // worst case: next full at 12
+  seq.movers.push_back(
+      {.id = 25, .x = C.x() - 0.9, .y = C.y() + 0.5, .vx = 0.5, .from = 11});  // best: full at 12
+  seq.movers.push_back({.id = 42,
+                        .length = 0.075,
+                        .x = C.x() + 1.6,
+                        .y = C.y() - 0.8,
+                        .from = 14});  // small, at the edge
   ips::TrackerOptions opt;
   const int period = opt.full_search_period;
   ips::DetectionTracker tracker(opt, 0);
@@ -159,7 +172,8 @@ TEST(Tracker, MarkerAppearingMidSequenceIsAcquiredWithinThePeriod) {
   }
   for (const auto& m : seq.movers) {
     ASSERT_TRUE(acquired.count(m.id)) << "marker " << m.id << " never acquired";
-    EXPECT_LE(acquired[m.id] - m.from + 1, period) << "marker " << m.id << " appeared at frame " << m.from;
+    EXPECT_LE(acquired[m.id] - m.from + 1, period)
+        << "marker " << m.id << " appeared at frame " << m.from;
   }
   EXPECT_EQ(acquired[11], 12);  // not before the next full search: the bound is reached
   EXPECT_GE(roi_frames, 26 - 26 / period - 2);  // nearly every other frame searched ROIs only
@@ -172,7 +186,13 @@ TEST(Tracker, MarkerThatJumpsIsReacquiredOnTheSameFrame) {
   const CameraRenderer r(scene, scene.camera_index("red"));
   const auto& C = r.camera().position;
   Sequence seq{r, {}};
-  seq.movers.push_back({.id = 7, .x = C.x() - 0.5, .y = C.y(), .vx = 0.8, .jump_at = 9, .jump_x = 0.3, .jump_y = 0.6});
+  seq.movers.push_back({.id = 7,
+                        .x = C.x() - 0.5,
+                        .y = C.y(),
+                        .vx = 0.8,
+                        .jump_at = 9,
+                        .jump_x = 0.3,
+                        .jump_y = 0.6});
   seq.movers.push_back({.id = 8, .x = C.x() + 0.8, .y = C.y() - 0.4, .vy = 0.5});
   ips::DetectionTracker tracker({}, 0);
   ips::Detector detector;
@@ -184,7 +204,7 @@ TEST(Tracker, MarkerThatJumpsIsReacquiredOnTheSameFrame) {
     EXPECT_NE(find(found, 7), nullptr) << "frame " << f;
     EXPECT_NE(find(found, 8), nullptr) << "frame " << f;
   }
-  EXPECT_EQ(tracker.counters().fallbacks, 1u);  // the jump, and nothing else
+  EXPECT_EQ(tracker.counters().fallbacks, 1u);                // the jump, and nothing else
   EXPECT_EQ(tracker.counters().full_searches, 1u + 1u + 1u);  // frames 0, 6 and the jump
 }
 
@@ -197,9 +217,11 @@ TEST(Tracker, GivesTheFullSearchMarkersAndCorners) {
   Sequence seq{r, {}};
   seq.movers.push_back({.id = 1, .x = C.x() - 0.8, .y = C.y() - 0.4, .vx = 1.0, .turn = 0.5});
   seq.movers.push_back({.id = 2, .x = C.x() + 0.6, .y = C.y() + 0.3, .vx = -0.7, .vy = -0.7});
-  seq.movers.push_back({.id = 5, .x = C.x(), .y = C.y() + 0.45, .vy = -0.2, .yaw = 1.0, .turn = -2.0});
+  seq.movers.push_back(
+      {.id = 5, .x = C.x(), .y = C.y() + 0.45, .vy = -0.2, .yaw = 1.0, .turn = -2.0});
   seq.movers.push_back({.id = 9, .x = C.x() + 1.0, .y = C.y() - 0.5});
-  seq.movers.push_back({.id = 14, .length = 0.075, .x = C.x() - 1.2, .y = C.y() + 0.5, .vx = 0.3, .until = 10});
+  seq.movers.push_back(
+      {.id = 14, .length = 0.075, .x = C.x() - 1.2, .y = C.y() + 0.5, .vx = 0.3, .until = 10});
   ips::DetectionTracker tracker({}, 3);
   ips::Detector tracked_detector, full_detector;
   const ips::CameraModel& cam = r.camera().model;
@@ -216,8 +238,10 @@ TEST(Tracker, GivesTheFullSearchMarkersAndCorners) {
       const auto* t = find(tracked, d.id);
       ASSERT_NE(t, nullptr) << "frame " << f << " marker " << d.id;
       for (std::size_t k = 0; k < 4; ++k) {
-        EXPECT_NEAR(t->corners_px[k].x, d.corners_px[k].x, 0.05) << "frame " << f << " marker " << d.id;
-        EXPECT_NEAR(t->corners_px[k].y, d.corners_px[k].y, 0.05) << "frame " << f << " marker " << d.id;
+        EXPECT_NEAR(t->corners_px[k].x, d.corners_px[k].x, 0.05)
+            << "frame " << f << " marker " << d.id;
+        EXPECT_NEAR(t->corners_px[k].y, d.corners_px[k].y, 0.05)
+            << "frame " << f << " marker " << d.id;
       }
       ++compared;
     }
@@ -252,7 +276,9 @@ TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
   const Scene scene = test_scene();
   const CameraRenderer r(scene, scene.camera_index("red"));
   const auto& C = r.camera().position;
-  Sequence seq{r, {{.id = 4, .x = C.x() - 0.3, .y = C.y(), .vx = 0.5}, {.id = 6, .x = C.x() + 0.9, .y = C.y() + 0.5}}};
+  Sequence seq{r,
+               {{.id = 4, .x = C.x() - 0.3, .y = C.y(), .vx = 0.5},
+                {.id = 6, .x = C.x() + 0.9, .y = C.y() + 0.5}}};
   ips::JpegDecoder full_decoder;
   ips::JpegRegionDecoder region_decoder;
   ips::DetectionTracker tracker;
@@ -265,14 +291,16 @@ TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
     ASSERT_TRUE(full_decoder.decode_gray(jpeg, full));
     const ips::TrackPlan plan = tracker.plan(full.size());
     partial = cv::Mat(full.size(), CV_8UC1, cv::Scalar(0));
-    ASSERT_TRUE(region_decoder.decode(jpeg, partial, plan.full ? std::vector<cv::Rect>{} : plan.rois))
+    ASSERT_TRUE(
+        region_decoder.decode(jpeg, partial, plan.full ? std::vector<cv::Rect>{} : plan.rois))
         << region_decoder.error();
     if (plan.full) {
       EXPECT_EQ(cv::norm(full, partial, cv::NORM_INF), 0.0);
     } else {
       ++roi_frames;
       ASSERT_EQ(plan.rois.size(), 2u);
-      for (const auto& roi : plan.rois) EXPECT_EQ(cv::norm(full(roi), partial(roi), cv::NORM_INF), 0.0);
+      for (const auto& roi : plan.rois)
+        EXPECT_EQ(cv::norm(full(roi), partial(roi), cv::NORM_INF), 0.0);
       // Rows below the lowest ROI were not decoded at all.
       int bottom = 0;
       for (const auto& roi : plan.rois) bottom = std::max(bottom, roi.y + roi.height);
