@@ -13,7 +13,8 @@
 //     "fusion", the simulator's "sim:<name>") from /proc/<pid>/task/*/stat, as a percentage of
 //     one core; the daemon's total without the simulator; the machine's idle CPU (left over);
 //   - frames per second, detect ms per frame, markers per frame and drops per camera.
-// Usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]
+// Usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--ipsd PATH] [--ips PATH]
+//   --tracking: detection.tracking in the daemon's config (default: the daemon's default, on).
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -107,6 +108,7 @@ double percentile(std::vector<double> v, double p) {
 
 int main(int argc, char** argv) {
   double seconds = 20.0, fps = 30.0;
+  std::string tracking;  // "" = the daemon's default
   const fs::path self = fs::read_symlink("/proc/self/exe");
   fs::path ipsd = self.parent_path().parent_path() / "ipsd";
   fs::path ips = self.parent_path().parent_path() / "ips";
@@ -116,8 +118,10 @@ int main(int argc, char** argv) {
     else if (a == "--fps") fps = std::stod(argv[i + 1]);
     else if (a == "--ipsd") ipsd = argv[i + 1];
     else if (a == "--ips") ips = argv[i + 1];
+    else if (a == "--tracking" && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off"))
+      tracking = argv[i + 1];
     else {
-      std::fprintf(stderr, "usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]\n");
+      std::fprintf(stderr, "usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--ipsd PATH] [--ips PATH]\n");
       return 2;
     }
   }
@@ -145,6 +149,7 @@ int main(int argc, char** argv) {
       << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.023}\n"
       << "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n    3: {height: 0.0, edge_length: 0.15}\n"
       << "    4: {height: 0.05}\n"
+      << (tracking.empty() ? "" : "detection: {tracking: " + std::string(tracking == "on" ? "true" : "false") + "}\n")
       << "model_file: model.json\n"
       << "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " << receiver.port << ", format: binary}\n"
       << "status: {interval: 1, socket: " << socket_path << "}\n";
