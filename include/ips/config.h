@@ -49,6 +49,7 @@ struct CameraConfig {
   // file
   std::filesystem::path path;  ///< file: a video file or a directory of images; required for file
   bool loop = true;            ///< file: start again at the end (false: the source ends -> reopened)
+  bool preload = false;        ///< file (a directory): replay from memory, decode only (#12)
   // synthetic
   std::filesystem::path scene;  ///< synthetic: the simulator's scene file; required for synthetic
   std::string scene_camera;     ///< synthetic: camera of the scene to render; default: `name`

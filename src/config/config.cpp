@@ -201,6 +201,7 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
   }
   r.get_path("path", c.path, base, c.source == SourceKind::kFile);
   r.get("loop", c.loop);
+  r.get("preload", c.preload);
   r.get_path("scene", c.scene, base, c.source == SourceKind::kSynthetic);
   c.scene_camera = c.name;
   r.get("scene_camera", c.scene_camera);
