@@ -10,13 +10,15 @@ find_package(nlohmann_json 3.10 REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(spdlog REQUIRED)
 pkg_check_modules(TURBOJPEG REQUIRED IMPORTED_TARGET libturbojpeg)
+# libjpeg's own API (same libjpeg-turbo package): partial decodes for tracking (jpeg_crop_scanline).
+pkg_check_modules(LIBJPEG REQUIRED IMPORTED_TARGET libjpeg)
 pkg_check_modules(SYSTEMD REQUIRED IMPORTED_TARGET libsystemd)
 
 add_library(ips_deps INTERFACE)
 target_include_directories(ips_deps SYSTEM INTERFACE ${OpenCV_INCLUDE_DIRS})
 target_link_libraries(ips_deps INTERFACE
   ${OpenCV_LIBS} Eigen3::Eigen ${NLOPT_LIBRARIES} yaml-cpp nlohmann_json::nlohmann_json
-  CLI11::CLI11 spdlog::spdlog PkgConfig::TURBOJPEG PkgConfig::SYSTEMD Threads::Threads)
+  CLI11::CLI11 spdlog::spdlog PkgConfig::TURBOJPEG PkgConfig::LIBJPEG PkgConfig::SYSTEMD Threads::Threads)
 
 # HMAC-SHA256 and a CSPRNG for the subscriptions output (cookies, pre-shared key).
 pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET libsodium)

@@ -13,7 +13,15 @@
 //     "fusion", the simulator's "sim:<name>") from /proc/<pid>/task/*/stat, as a percentage of
 //     one core; the daemon's total without the simulator; the machine's idle CPU (left over);
 //   - frames per second, detect ms per frame, markers per frame and drops per camera.
-// Usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]
+// Usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--ipsd PATH] [--ips PATH]
+//   --tracking: detection.tracking in the daemon's config (default: the daemon's default, on).
+//   --replay --cameras N: instead of synthetic cameras, N file cameras replaying pre-rendered
+//   1080p JPEG frames of the published lab (3 s rendered once by `ips sim render`, looped)
+//   from memory (cameras[].preload): a real camera's cost to the daemon, without rendering.
+//   Camera k replays the view of red/white/black (k mod 3) under its own name, with that
+//   camera's model entry. A file source delivers a frame when it is read (no transport delay)
+//   and never skips one: a daemon that cannot keep up shows as fps below the target (the
+//   "shortfall"), not as drops.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -107,17 +115,29 @@ double percentile(std::vector<double> v, double p) {
 
 int main(int argc, char** argv) {
   double seconds = 20.0, fps = 30.0;
+  std::string tracking;  // "" = the daemon's default
+  bool replay = false;
+  int n_cameras = 3;
   const fs::path self = fs::read_symlink("/proc/self/exe");
   fs::path ipsd = self.parent_path().parent_path() / "ipsd";
   fs::path ips = self.parent_path().parent_path() / "ips";
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i];
-    if (a == "--seconds") seconds = std::stod(argv[i + 1]);
+  for (int i = 1; i < argc; i += 2) {
+    std::string a = argv[i];
+    if (a == "--replay") {
+      replay = true;
+      --i;
+      continue;
+    }
+    if (i + 1 >= argc) a.clear();  // an option without its value: the usage below
+    if (a == "--cameras") n_cameras = std::stoi(argv[i + 1]);
+    else if (a == "--seconds") seconds = std::stod(argv[i + 1]);
     else if (a == "--fps") fps = std::stod(argv[i + 1]);
     else if (a == "--ipsd") ipsd = argv[i + 1];
     else if (a == "--ips") ips = argv[i + 1];
+    else if (a == "--tracking" && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off"))
+      tracking = argv[i + 1];
     else {
-      std::fprintf(stderr, "usage: bench_daemon [--seconds S] [--fps F] [--ipsd PATH] [--ips PATH]\n");
+      std::fprintf(stderr, "usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--ipsd PATH] [--ips PATH]\n");
       return 2;
     }
   }
@@ -132,19 +152,62 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_daemon: model setup failed, see %s\n", log.c_str());
     return 1;
   }
+  if (n_cameras < 1 || n_cameras > 32 || (!replay && n_cameras != 3)) {
+    std::fprintf(stderr, "bench_daemon: --cameras is 1..32 and needs --replay\n");
+    return 2;
+  }
+  const char* bases[] = {"red", "white", "black"};
+  auto camera_name = [&](int k) {
+    return k < 3 ? std::string(bases[k]) : std::string(bases[k % 3]) + "_" + std::to_string(k / 3);
+  };
+  if (replay) {
+    std::printf("bench_daemon: rendering 3 s of frames for the replay...\n");
+    std::fflush(stdout);
+    const fs::path frames = dir / "frames";
+    if (run({ips.string(), "sim", "render", "--scene", scene.string(), "--out", frames.string(), "--frames",
+             std::to_string(static_cast<int>(3 * fps)), "--fps", std::to_string(fps)},
+            log) != 0) {
+      std::fprintf(stderr, "bench_daemon: rendering failed, see %s\n", log.c_str());
+      return 1;
+    }
+    for (const char* b : bases) fs::create_directories(frames / b);
+    for (const auto& e : fs::directory_iterator(frames)) {
+      const std::string f = e.path().filename().string();
+      for (const char* b : bases)
+        if (f.rfind(std::string(b) + "_", 0) == 0 && e.path().extension() == ".jpg")
+          fs::rename(e.path(), frames / b / f);
+    }
+    // Every replayed camera maps with the model entry of the camera whose view it replays.
+    nlohmann::json model;
+    std::ifstream(dir / "model.json") >> model;
+    for (int k = 3; k < n_cameras; ++k) model["cameras"][camera_name(k)] = model["cameras"][bases[k % 3]];
+    std::ofstream(dir / "model.json") << model.dump(1);
+  }
 
   // The receiver, on a free loopback port.
   ips::support::UdpReceiver receiver;
   const int rx = receiver.fd;
 
   const std::string socket_path = (dir / "status.sock").string();
+  std::ostringstream cameras;
+  if (replay) {
+    for (int k = 0; k < n_cameras; ++k) {
+      const std::string b = bases[k % 3];
+      cameras << "  - {name: " << camera_name(k) << ", source: file, path: " << (dir / "frames" / b).string()
+              << ", fps: " << fps << ", preload: true, intrinsics: " << IPS_SOURCE_DIR
+              << "/calib_data/ou2023/intrinsics_" << b << ".yaml}\n";
+    }
+  } else {
+    cameras << "  - {name: red, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.000}\n"
+            << "  - {name: white, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.011}\n"
+            << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.023}\n";
+  }
   std::ofstream(dir / "ipsd.yaml")
       << "cameras:\n"
-      << "  - {name: red, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.000}\n"
-      << "  - {name: white, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.011}\n"
-      << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.023}\n"
+      << cameras.str()
       << "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n    3: {height: 0.0, edge_length: 0.15}\n"
       << "    4: {height: 0.05}\n"
+      << (tracking.empty() ? "" : "detection: {tracking: " + std::string(tracking == "on" ? "true" : "false") + "}\n")
       << "model_file: model.json\n"
       << "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " << receiver.port << ", format: binary}\n"
       << "status: {interval: 1, socket: " << socket_path << "}\n";
@@ -174,7 +237,8 @@ int main(int argc, char** argv) {
   };
 
   // Warm-up: the cameras open (renderer precomputation) and the first frames flow.
-  std::printf("bench_daemon: ipsd pid %d, 3 synthetic cameras at %.0f fps; warming up...\n", pid, fps);
+  std::printf("bench_daemon: ipsd pid %d, %d %s cameras at %.0f fps; warming up...\n", pid, n_cameras,
+              replay ? "replayed" : "synthetic", fps);
   std::fflush(stdout);
   const std::int64_t warm_end = ips::monotonic_ns() + 30'000'000'000LL;
   while (ips::monotonic_ns() < warm_end && receive_for(0.5, nullptr, nullptr, nullptr) == 0) {
@@ -224,12 +288,14 @@ int main(int argc, char** argv) {
   // than its capture + the transport delay (one frame period here). So over ALL datagrams
   // processing (delivered -> sendto) <= (capture -> sendto) - delay, quantile by quantile: the
   // pooled p99 the per-interval status figures cannot give.
-  const double delay_ms = 1000.0 / fps;
+  const double delay_ms = replay ? 0.0 : 1000.0 / fps;  // a file source hands a frame over when read
   std::printf("processing, all datagrams  p50 <= %5.1f ms   p99 <= %5.1f ms   max <= %5.1f ms  (capture -> sendto - %.1f ms transport)\n",
               percentile(to_send, 50) - delay_ms, percentile(to_send, 99) - delay_ms, percentile(to_send, 100) - delay_ms,
               delay_ms);
   std::printf("%-12s %8s %8s %10s %8s %8s\n", "thread", "CPU %", "fps", "detect ms", "markers", "drops");
   long total = 0, simulator = 0;
+  double fps_sum = 0;
+  int fps_n = 0;
   for (const auto& [name, t1] : cpu1) {
     const long used = t1 - (cpu0.count(name) ? cpu0.at(name) : 0);
     total += used;
@@ -246,6 +312,8 @@ int main(int argc, char** argv) {
         const double detect_s = c.value("detect_s_total", 0.0) - c0.value("detect_s_total", 0.0);
         const auto found = c.value("markers_total", 0ULL) - c0.value("markers_total", 0ULL);
         const double per_frame = frames ? 1.0 / static_cast<double>(frames) : 0.0;
+        fps_sum += static_cast<double>(frames) / wall;
+        ++fps_n;
         std::printf("%-12s %8.1f %8.1f %10.1f %8.2f %8llu\n", name.c_str(), pct, static_cast<double>(frames) / wall,
                     1e3 * detect_s * per_frame, static_cast<double>(found) * per_frame,
                     static_cast<unsigned long long>(drops));
@@ -264,6 +332,9 @@ int main(int argc, char** argv) {
               static_cast<double>(total - simulator) * to_pct);
   std::printf("%-12s %8.1f   (machine idle over the measurement: CPU left over, all processes)\n", "idle",
               static_cast<double>(idle1 - idle0) * to_pct);
+  if (fps_n > 0)
+    std::printf("%-12s %8.1f   (mean camera fps vs %.0f: frames short %.2f %%)\n", "fps", fps_sum / fps_n, fps,
+                100.0 * std::max(0.0, 1.0 - fps_sum / fps_n / fps));
   fs::remove_all(dir);
   return 0;
 }

@@ -17,10 +17,15 @@
 //   reference detectMarkers with OpenCV's own threads (wall time), as a Python program that
 //              does not set the thread count runs it.
 // Times are per-thread CPU time, milliseconds, except where "wall" is said.
-// Usage: bench_perception [frames_per_case=40] [scene.yaml]
+// Tracked cases "1t" and "5t" (#12): 1 and 5 markers moving at up to 1 m/s, a sequence of
+// >= 100 frames at 30 fps; three pipelines on the same frames: "tracked" (DetectionTracker with
+// partial JPEG decodes of the ROIs; full decode + search on its full-search frames and
+// fallbacks), "ours-full" (the full search every frame) and the reference. Per-frame CPU.
+// Usage: bench_perception [frames_per_case=40] [scene.yaml] [tracked_frames=150]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <chrono>
 #include <ctime>
 #include <random>
@@ -35,8 +40,10 @@
 
 #include "ips/detector.h"
 #include "ips/jpeg_decoder.h"
+#include "ips/jpeg_region_decoder.h"
 #include "ips/marker_geometry.h"
 #include "ips/sim/renderer.h"
+#include "ips/tracker.h"
 
 namespace {
 
@@ -99,10 +106,190 @@ void score(const std::vector<ips::MarkerDetection>& found,
   }
 }
 
+// The published sequence of calls on every frame of `c` (markers of edge `length`).
+Result reference(const Case& c, const ips::CameraModel& cam, double length, int threads_available) {
+  Result ref;
+  auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_100);
+  auto params = cv::aruco::DetectorParameters::create();
+  const cv::Mat K(cam.K()), D(cam.D());
+  for (std::size_t f = 0; f < c.jpegs.size(); ++f) {
+    auto t0 = Clock::now();
+    const cv::Mat bgr = cv::imdecode(c.jpegs[f], cv::IMREAD_COLOR);
+    const double t_dec = ms_since(t0);
+    t0 = Clock::now();
+    cv::Mat gray;
+    cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+    std::vector<std::vector<cv::Point2f>> corners;
+    std::vector<int> ids;
+    cv::aruco::detectMarkers(gray, dict, corners, ids, params);
+    for (auto& q : corners) {
+      cv::cornerSubPix(
+          gray, q, cv::Size(3, 3), cv::Size(-1, -1),
+          cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 30, 0.001));
+    }
+    const double t_det = ms_since(t0);
+    t0 = Clock::now();
+    double sink = 0;
+    for (const auto& q : corners) {
+      std::vector<cv::Point2d> in(q.begin(), q.end()), out;
+      cv::fisheye::undistortPoints(in, out, K, D);
+      double per = 0;
+      for (int i = 0; i < 4; ++i)
+        per += cv::norm(out[static_cast<std::size_t>((i + 1) % 4)] -
+                        out[static_cast<std::size_t>(i)]);
+      sink += 4 * length / per;
+    }
+    const double t_loc = ms_since(t0);
+    if (sink < 0) std::printf(" ");
+    ref.decode.add(t_dec);
+    ref.detect.add(t_det);
+    ref.locate.add(t_loc);
+    ref.total.add(t_dec + t_det + t_loc);
+    std::vector<ips::MarkerDetection> found;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      ips::MarkerDetection d;
+      d.id = ids[i];
+      for (std::size_t k = 0; k < 4; ++k) d.corners_px[k] = {corners[i][k].x, corners[i][k].y};
+      found.push_back(d);
+    }
+    score(found, c.truth[f], ref);
+
+    cv::setNumThreads(threads_available);
+    const auto w0 = std::chrono::steady_clock::now();
+    cv::aruco::detectMarkers(gray, dict, corners, ids, params);
+    ref.detect_threaded.add(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - w0)
+            .count());
+    cv::setNumThreads(1);
+  }
+  return ref;
+}
+
+
+// A tracked case (#12): `n_markers` 20 cm markers moving on the floor under the red camera at
+// up to 1 m/s, one lane each (0.34 m apart: they never overlap), bouncing at the ends, turning
+// at 0.5 rad/s; 30 fps. Frames are rendered once; ours is run twice on them (tracking with
+// partial decodes, and the full search every frame), the reference once.
+Case moving_case(const ips::sim::CameraRenderer& renderer, int n_markers, int frames) {
+  Case c;
+  const auto& C = renderer.camera().position;
+  const double speeds[] = {1.0, 0.8, 0.6, 0.9, 0.7};
+  for (int f = 0; f < frames; ++f) {
+    const double t = f / 30.0;
+    std::vector<ips::sim::PlacedMarker> placed;
+    std::vector<ips::sim::MarkerTruth> truth;
+    for (int i = 0; i < n_markers; ++i) {
+      ips::sim::SceneMarker m;
+      m.id = 3 + 11 * i;
+      m.length = 0.20;
+      const double v = speeds[i % 5];
+      // Triangle wave over [-1.2, 1.2] m along x; the single marker also crosses in y.
+      const double span = 2.4, path = std::fmod(v * t + 0.37 * span * i, 2 * span);
+      const double x = C.x() - span / 2 + (path < span ? path : 2 * span - path);
+      const double lane = n_markers == 1 ? 0.5 * std::sin(2.0 * t) : (i - (n_markers - 1) / 2.0) * 0.34;
+      const ips::sim::MarkerPose pose{x, C.y() + lane, 0.01, 0.5 * t + i};
+      placed.push_back({m, {pose}});
+      truth.push_back(renderer.truth_of(m, pose));
+    }
+    cv::Mat gray;
+    renderer.render_markers(placed, gray, static_cast<std::uint64_t>(5000 + f));
+    c.jpegs.push_back(ips::sim::encode_jpeg(gray, 90, true));
+    c.truth.push_back(truth);
+  }
+  return c;
+}
+
+// Ours with tracking on every frame of `c`, in order: the plan's ROIs decoded (partial
+// decode) and searched, the full decode + search on full-search frames and fallbacks.
+Result ours_tracked(const Case& c, const ips::CameraModel& cam, double length, Stats& partial_decode,
+                    ips::DetectionTracker::Counters& counters) {
+  Result r;
+  ips::JpegDecoder decoder;
+  ips::JpegRegionDecoder region;
+  ips::Detector detector;
+  ips::DetectionTracker tracker;
+  cv::Mat gray;
+  for (std::size_t f = 0; f < c.jpegs.size(); ++f) {
+    auto t0 = Clock::now();
+    const ips::TrackPlan plan = tracker.plan(cv::Size(1920, 1080));
+    if (plan.full ? !decoder.decode_gray(c.jpegs[f], gray) : !region.decode(c.jpegs[f], gray, plan.rois))
+      std::exit(1);
+    double t_dec = ms_since(t0);
+    if (!plan.full) partial_decode.add(t_dec);
+    t0 = Clock::now();
+    std::vector<ips::MarkerDetection> found;
+    double t_det = 0;
+    if (!tracker.detect(detector, gray, plan, &cam, found)) {  // lost: decode and search in full
+      t_det = ms_since(t0);
+      t0 = Clock::now();
+      if (!decoder.decode_gray(c.jpegs[f], gray)) std::exit(1);
+      t_dec += ms_since(t0);
+      t0 = Clock::now();
+      tracker.detect(detector, gray, ips::TrackPlan{}, &cam, found);
+    }
+    t_det += ms_since(t0);
+    t0 = Clock::now();
+    double sink = 0;
+    for (const auto& d : found) sink += ips::locate_marker(d, cam, length).p_cam.z();
+    const double t_loc = ms_since(t0);
+    if (sink < 0) std::printf(" ");
+    r.decode.add(t_dec);
+    r.detect.add(t_det);
+    r.locate.add(t_loc);
+    r.total.add(t_dec + t_det + t_loc);
+    score(found, c.truth[f], r);
+  }
+  counters = tracker.counters();
+  return r;
+}
+
+// Ours without tracking: full decode + full search on every frame.
+Result ours_full(const Case& c, const ips::CameraModel& cam, double length) {
+  Result r;
+  ips::JpegDecoder decoder;
+  ips::Detector detector;
+  cv::Mat gray;
+  for (std::size_t f = 0; f < c.jpegs.size(); ++f) {
+    auto t0 = Clock::now();
+    if (!decoder.decode_gray(c.jpegs[f], gray)) std::exit(1);
+    const double t_dec = ms_since(t0);
+    t0 = Clock::now();
+    const auto found = detector.detect(gray, &cam);
+    const double t_det = ms_since(t0);
+    t0 = Clock::now();
+    double sink = 0;
+    for (const auto& d : found) sink += ips::locate_marker(d, cam, length).p_cam.z();
+    const double t_loc = ms_since(t0);
+    if (sink < 0) std::printf(" ");
+    r.decode.add(t_dec);
+    r.detect.add(t_det);
+    r.locate.add(t_loc);
+    r.total.add(t_dec + t_det + t_loc);
+    score(found, c.truth[f], r);
+  }
+  return r;
+}
+
+double mean(const Stats& s) {
+  double m = 0;
+  for (double x : s.v) m += x / static_cast<double>(s.v.size());
+  return m;
+}
+
+void print_row(const char* label, const char* name, const Result& r) {
+  std::printf(
+      "%-7s %-9s | %7.2f / %7.2f | %7.2f / %7.2f | %7.3f / %7.3f | %7.2f / %7.2f | %4d/%-4d "
+      "%5d | %.3f / %.3f\n",
+      label, name, r.decode.pct(0.5), r.decode.pct(0.95), r.detect.pct(0.5), r.detect.pct(0.95),
+      r.locate.pct(0.5), r.locate.pct(0.95), r.total.pct(0.5), r.total.pct(0.95), r.found, r.expected,
+      r.extra, r.corner_err.pct(0.5), r.corner_err.pct(1.0));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(5, std::atoi(argv[1])) : 40;
+  const int tracked_frames_arg = argc > 3 ? std::atoi(argv[3]) : 150;
   const std::string scene_path =
       argc > 2 ? argv[2] : std::string(IPS_SOURCE_DIR) + "/config/scenes/ou2023.yaml";
   const int threads_available = cv::getNumThreads();
@@ -189,78 +376,36 @@ int main(int argc, char** argv) {
       }
     }
     // Reference: the published sequence of calls.
-    Result ref;
-    {
-      auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_100);
-      auto params = cv::aruco::DetectorParameters::create();
-      const cv::Mat K(cam.K()), D(cam.D());
-      for (std::size_t f = 0; f < c.jpegs.size(); ++f) {
-        auto t0 = Clock::now();
-        const cv::Mat bgr = cv::imdecode(c.jpegs[f], cv::IMREAD_COLOR);
-        const double t_dec = ms_since(t0);
-        t0 = Clock::now();
-        cv::Mat gray;
-        cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
-        std::vector<std::vector<cv::Point2f>> corners;
-        std::vector<int> ids;
-        cv::aruco::detectMarkers(gray, dict, corners, ids, params);
-        for (auto& q : corners) {
-          cv::cornerSubPix(
-              gray, q, cv::Size(3, 3), cv::Size(-1, -1),
-              cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 30, 0.001));
-        }
-        const double t_det = ms_since(t0);
-        t0 = Clock::now();
-        double sink = 0;
-        for (const auto& q : corners) {
-          std::vector<cv::Point2d> in(q.begin(), q.end()), out;
-          cv::fisheye::undistortPoints(in, out, K, D);
-          double per = 0;
-          for (int i = 0; i < 4; ++i)
-            per += cv::norm(out[static_cast<std::size_t>((i + 1) % 4)] -
-                            out[static_cast<std::size_t>(i)]);
-          sink += 4 * length / per;
-        }
-        const double t_loc = ms_since(t0);
-        if (sink < 0) std::printf(" ");
-        ref.decode.add(t_dec);
-        ref.detect.add(t_det);
-        ref.locate.add(t_loc);
-        ref.total.add(t_dec + t_det + t_loc);
-        std::vector<ips::MarkerDetection> found;
-        for (std::size_t i = 0; i < ids.size(); ++i) {
-          ips::MarkerDetection d;
-          d.id = ids[i];
-          for (std::size_t k = 0; k < 4; ++k) d.corners_px[k] = {corners[i][k].x, corners[i][k].y};
-          found.push_back(d);
-        }
-        score(found, c.truth[f], ref);
-
-        cv::setNumThreads(threads_available);
-        const auto w0 = std::chrono::steady_clock::now();
-        cv::aruco::detectMarkers(gray, dict, corners, ids, params);
-        ref.detect_threaded.add(
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - w0)
-                .count());
-        cv::setNumThreads(1);
-      }
-    }
-    for (const auto& [name, r] :
-         {std::pair<const char*, const Result&>{"ours", ours}, {"reference", ref}}) {
-      std::printf(
-          "%-7s %-9s | %7.2f / %7.2f | %7.2f / %7.2f | %7.3f / %7.3f | %7.2f / %7.2f | %4d/%-4d "
-          "%5d | %.3f / %.3f\n",
-          label, name, r.decode.pct(0.5), r.decode.pct(0.95), r.detect.pct(0.5),
-          r.detect.pct(0.95), r.locate.pct(0.5), r.locate.pct(0.95), r.total.pct(0.5),
-          r.total.pct(0.95), r.found, r.expected, r.extra, r.corner_err.pct(0.5),
-          r.corner_err.pct(1.0));
-    }
+    Result ref = reference(c, cam, length, threads_available);
+    print_row(label, "ours", ours);
+    print_row(label, "reference", ref);
     std::printf(
         "%-7s           | JPEG %.0f kB mean; decode floor (1/8-scale luma: Huffman decoding only) "
         "%.2f / %.2f; reference detectMarkers on %d OpenCV threads, wall %.2f / %.2f\n",
         label, bytes / static_cast<double>(c.jpegs.size()) / 1000.0,
         ours.decode_floor.pct(0.5), ours.decode_floor.pct(0.95), threads_available,
         ref.detect_threaded.pct(0.5), ref.detect_threaded.pct(0.95));
+  }
+  // Tracked cases (#12): markers moving at up to 1 m/s, >= 100 frames at 30 fps.
+  const int tracked_frames = std::max(100, tracked_frames_arg);
+  for (int n_markers : {1, 5}) {
+    char label[16];
+    std::snprintf(label, sizeof label, "%dt", n_markers);
+    const Case c = moving_case(renderer, n_markers, tracked_frames);
+    Stats partial;
+    ips::DetectionTracker::Counters counters;
+    const Result tracked = ours_tracked(c, cam, 0.20, partial, counters);
+    const Result full = ours_full(c, cam, 0.20);
+    const Result ref = reference(c, cam, 0.20, threads_available);
+    print_row(label, "tracked", tracked);
+    print_row(label, "ours-full", full);
+    print_row(label, "reference", ref);
+    std::printf(
+        "%-7s           | %d frames: %llu full searches (%llu fallbacks); partial decode med/p95 %.2f / %.2f; "
+        "mean total tracked %.2f, full %.2f, reference %.2f; reference/tracked median %.1fx\n",
+        label, tracked_frames, static_cast<unsigned long long>(counters.full_searches),
+        static_cast<unsigned long long>(counters.fallbacks), partial.pct(0.5), partial.pct(0.95), mean(tracked.total),
+        mean(full.total), mean(ref.total), ref.total.pct(0.5) / tracked.total.pct(0.5));
   }
   return 0;
 }

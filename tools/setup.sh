@@ -9,6 +9,7 @@ PACKAGES=(
   libeigen3-dev                            # linear algebra for the mappers
   libnlopt-cxx-dev                         # kriging maximum-likelihood optimisation
   libturbojpeg0-dev                        # fast MJPEG -> greyscale decode
+  libjpeg62-turbo-dev                      # libjpeg API: partial decodes (jpeg_crop_scanline, jpeg_skip_scanlines)
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
   libsystemd-dev                           # sd_notify
   linux-libc-dev                           # V4L2 headers

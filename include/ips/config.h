@@ -16,6 +16,7 @@
 #include "ips/kalman.h"
 #include "ips/marker_geometry.h"
 #include "ips/packet_codec.h"
+#include "ips/tracker.h"
 
 namespace ips {
 
@@ -48,6 +49,7 @@ struct CameraConfig {
   // file
   std::filesystem::path path;  ///< file: a video file or a directory of images; required for file
   bool loop = true;            ///< file: start again at the end (false: the source ends -> reopened)
+  bool preload = false;        ///< file (a directory): replay from memory, decode only (#12)
   // synthetic
   std::filesystem::path scene;  ///< synthetic: the simulator's scene file; required for synthetic
   std::string scene_camera;     ///< synthetic: camera of the scene to render; default: `name`
@@ -197,6 +199,8 @@ struct DaemonConfig {
   MarkerConfig markers;
   /// detection: the detector's tuning; `dictionary` is copied from markers.dictionary.
   DetectorOptions detection;
+  /// detection.tracking / full_search_period / roi_margin: tracking between frames (#12).
+  TrackerOptions tracking;
   std::filesystem::path model_file;  ///< required
   FusionConfig fusion;
   std::vector<OutputConfig> outputs;

@@ -5,12 +5,14 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <opencv2/videoio.hpp>
 
 #include "ips/frame_source.h"
+#include "ips/jpeg_decoder.h"
 
 namespace ips {
 
@@ -23,6 +25,11 @@ struct FileSourceOptions {
   double fps = 30.0;
   /// true = start again at the end; false = read() returns kEnd after the last frame.
   bool loop = true;
+  /// Replay (#12): a directory's files are read into memory when the source opens and each
+  /// read() only decodes one (JPEG files with libjpeg-turbo to greyscale, as a USB camera's
+  /// MJPEG frame is decoded; other formats with OpenCV): what a real camera costs the daemon,
+  /// without disk reads. Memory: the files' total size.
+  bool preload = false;
 
   /// Throws ips::InputError naming the offending field.
   void validate() const;
@@ -47,6 +54,8 @@ class FileSource : public FrameSource {
   bool open_ = false;
   bool is_directory_ = false;
   std::vector<std::string> files_;
+  std::vector<std::vector<std::uint8_t>> preloaded_;  // files_' bytes (preload)
+  std::unique_ptr<JpegDecoder> jpeg_;
   std::size_t next_file_ = 0;
   cv::VideoCapture video_;
   cv::Mat decoded_;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <set>
 #include <thread>
 
@@ -40,6 +42,8 @@ void to_gray(const cv::Mat& in, cv::Mat& gray) {
 
 void FileSourceOptions::validate() const {
   if (path.empty()) throw InputError("file source: 'path' is empty");
+  if (preload && !std::filesystem::is_directory(path))
+    throw InputError("file source: 'preload' needs a directory of images, not " + path);
   if (!(fps >= 0 && fps <= 10000)) throw InputError("file source: 'fps' must be in [0, 10000]");
 }
 
@@ -60,6 +64,15 @@ void FileSource::open() {
         files_.push_back(entry.path().string());
     std::sort(files_.begin(), files_.end());
     if (files_.empty()) throw SourceError(describe() + ": the directory holds no image");
+    if (options_.preload) {
+      for (const auto& file : files_) {
+        std::ifstream in(file, std::ios::binary);
+        std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        if (!in.good() && !in.eof()) throw SourceError(describe() + ": cannot read " + file);
+        preloaded_.push_back(std::move(bytes));
+      }
+      if (!jpeg_) jpeg_ = std::make_unique<JpegDecoder>();
+    }
   } else if (!video_.open(options_.path) || !video_.isOpened()) {
     throw SourceError(describe() + ": cannot open as a video");
   }
@@ -71,6 +84,7 @@ void FileSource::open() {
 void FileSource::close() noexcept {
   open_ = false;
   files_.clear();
+  preloaded_.clear();
   if (video_.isOpened()) video_.release();
 }
 
@@ -81,8 +95,21 @@ bool FileSource::read_image(cv::Mat& gray, bool& corrupt) {
       if (!options_.loop) return false;
       next_file_ = 0;
     }
-    const std::string& file = files_[next_file_++];
-    decoded_ = cv::imread(file, cv::IMREAD_UNCHANGED);
+    const std::size_t index = next_file_++;
+    const std::string& file = files_[index];
+    if (options_.preload) {
+      const auto& bytes = preloaded_[index];
+      const bool jpeg = bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8;
+      if (jpeg) {
+        if (jpeg_->decode_gray(bytes, gray)) return true;
+        spdlog::warn("{}: cannot decode {}: {}; skipped", describe(), file, jpeg_->error());
+        corrupt = true;
+        return true;
+      }
+      decoded_ = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+    } else {
+      decoded_ = cv::imread(file, cv::IMREAD_UNCHANGED);
+    }
     if (decoded_.empty() || decoded_.depth() != CV_8U) {
       spdlog::warn("{}: cannot read {} as an 8-bit image; skipped", describe(), file);
       corrupt = true;

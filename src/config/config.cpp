@@ -103,6 +103,7 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
   }
   r.get_path("path", c.path, base, c.source == SourceKind::kFile);
   r.get("loop", c.loop);
+  r.get("preload", c.preload);
   r.get_path("scene", c.scene, base, c.source == SourceKind::kSynthetic);
   c.scene_camera = c.name;
   r.get("scene_camera", c.scene_camera);
@@ -153,7 +154,8 @@ MarkerConfig parse_markers(const YAML::Node& n, const std::string& file) {
 }
 
 // detection: the detector's tuning (DetectorOptions); the dictionary comes from markers.
-DetectorOptions parse_detection(const YAML::Node& n, const std::string& file) {
+// Also the tracking keys (#12), into `tracking`.
+DetectorOptions parse_detection(const YAML::Node& n, const std::string& file, TrackerOptions& tracking) {
   MapReader r(n, "detection", file);
   DetectorOptions d;
   auto int_in = [&](const std::string& k, int& value, int lo, int hi) {
@@ -208,6 +210,9 @@ DetectorOptions parse_detection(const YAML::Node& n, const std::string& file) {
       {{"edges", CornerRefinement::kEdges}, {"subpix", CornerRefinement::kSubPix}, {"none", CornerRefinement::kNone}},
       d.refinement, false);
   int_in("refine_half_window_px", d.refine_half_window_px, 1, 32);
+  r.get("tracking", tracking.enabled);
+  int_in("full_search_period", tracking.full_search_period, 1, 1000);
+  number_in("roi_margin", tracking.roi_margin, 0.25, 100.0);
   r.finish();
   return d;
 }
@@ -286,7 +291,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   }
 
   if (r.has("markers")) c.markers = parse_markers(r.node("markers"), file);
-  if (r.has("detection")) c.detection = parse_detection(r.node("detection"), file);
+  if (r.has("detection")) c.detection = parse_detection(r.node("detection"), file, c.tracking);
   try {
     (void)dictionary_id(c.markers.dictionary);
   } catch (const InputError& e) {

@@ -69,6 +69,7 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
       o.path = c.path.string();
       o.fps = c.fps;
       o.loop = c.loop;
+      o.preload = c.preload;
       try {
         o.validate();
       } catch (const InputError& e) {

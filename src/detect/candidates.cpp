@@ -70,6 +70,11 @@ void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double
   // perimeter the polygon approximation of a 12-15 px square keeps extra vertices and the
   // square is lost (a 30 px marker near the fisheye edge, seen at half scale).
   params_->polygonalApproxAccuracyRate = s > 1 ? 0.05 : 0.03;
+  // OpenCV drops squares within minDistanceToBorder (3) pixels of the searched image's border:
+  // at a coarse scale that is 3 x s full-resolution pixels, and a marker whose corner is 4-5 px
+  // from the frame edge (found by OpenCV at full resolution) was lost. Keep the full-resolution
+  // distance; inside an ROI the border is the ROI's, which has margin around every marker.
+  params_->minDistanceToBorder = std::max(1, 3 / s);
   const std::vector<int>& windows = options_.threshold_windows;
   // Windows given as an arithmetic sequence are one OpenCV call (its own loop over them),
   // other lists one call each.

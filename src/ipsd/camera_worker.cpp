@@ -63,6 +63,7 @@ void CameraWorker::run() {
       reported_failures = supervisor_.failures();
       stats_.failures = reported_failures;
       have_sequence = false;  // a reopened source restarts its counter
+      if (tracker_) tracker_->reset();  // and may show anything: search in full
       std::lock_guard lock(stats_.error_mutex);
       stats_.last_error = supervisor_.last_error();
     }
@@ -102,10 +103,15 @@ void CameraWorker::process(ips::Frame& frame) {
   const int index = config_.index;
   if (!detector_ || detector_->options() != rt->config.detection) {  // first frame, or a reload changed it
     detector_ = std::make_unique<ips::Detector>(rt->config.detection);
+    tracker_.reset();
+  }
+  if (!tracker_ || tracker_->options() != rt->config.tracking) {
+    // The camera index as phase: the cameras' full-frame searches fall on different frames.
+    tracker_ = std::make_unique<ips::DetectionTracker>(rt->config.tracking, index);
   }
   const ips::CameraModel& intrinsics = rt->intrinsics[static_cast<std::size_t>(index)];
   const std::int64_t t0 = ips::monotonic_ns();
-  const auto detections = detector_->detect(frame.gray, &intrinsics);
+  const auto detections = tracker_->track(*detector_, frame.gray, &intrinsics);
   if (tap_ && tap_->wanted()) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
   ips::FrameObservations batch;
   batch.camera_index = index;

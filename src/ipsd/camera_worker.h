@@ -9,6 +9,7 @@
 #include "ips/detector.h"
 #include "ips/source_supervisor.h"
 #include "ips/web.h"
+#include "ips/tracker.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -40,6 +41,7 @@ class CameraWorker {
   CameraStats& stats_;
   std::unique_ptr<ips::Detector> detector_;  // used by the camera thread only
   std::shared_ptr<ips::FrameTap> tap_;  // web view: a frame is copied only when a page asked
+  std::unique_ptr<ips::DetectionTracker> tracker_;  // rebuilt like detector_; detection.tracking
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

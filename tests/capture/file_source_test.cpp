@@ -1,5 +1,7 @@
 #include "ips/file_source.h"
 
+#include <iterator>
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -11,6 +13,7 @@
 #include "emu_harness.h"
 #include "ips/clock.h"
 #include "ips/error.h"
+#include "ips/jpeg_decoder.h"
 
 namespace {
 
@@ -133,6 +136,66 @@ TEST(FileSource, MissingOrEmptyPathThrowsSourceError) {
   EXPECT_THROW(empty.open(), ips::SourceError);
   EXPECT_THROW(ips::FileSource({"", 30.0, true}), ips::InputError);
   EXPECT_THROW(ips::FileSource({dir.str(), -1.0, true}), ips::InputError);
+}
+
+}  // namespace
+
+namespace {
+
+// Replay (#12): a preloaded directory plays the same frames as one read from disk (JPEG
+// frames decoded as the daemon decodes MJPEG: libjpeg-turbo's luma, fast IDCT, within a few
+// grey levels of OpenCV's decode), keeps playing after the files are deleted (they are in memory), and a
+// damaged JPEG is a corrupt frame.
+TEST(FileSource, PreloadedDirectoryReplaysFromMemory) {
+  ips::test::TempDir dir;
+  cv::Mat img(96, 128, CV_8UC1);
+  for (int i = 0; i < 3; ++i) {
+    cv::randu(img, 0, 255);
+    cv::GaussianBlur(img, img, cv::Size(5, 5), 1.5);
+    cv::imwrite(dir / ("f" + std::to_string(i) + ".jpg"), img);
+  }
+  cv::imwrite(dir / "f3.png", flat(77));
+  std::ofstream(dir / "f4.jpg", std::ios::binary) << "\xFF\xD8\xFF\xE0 not really a jpeg";
+  ips::FileSource disk({dir.str(), 0.0, false});
+  ips::FileSourceOptions o{dir.str(), 0.0, true};
+  o.preload = true;
+  ips::FileSource memory(o);
+  disk.open();
+  memory.open();
+  ips::Frame a, b;
+  std::vector<cv::Mat> from_disk;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_EQ(next(disk, a), Status::kFrame) << i;
+    from_disk.push_back(a.gray.clone());
+  }
+  std::vector<std::vector<std::uint8_t>> jpegs;
+  for (int i = 0; i < 3; ++i) {
+    std::ifstream in(dir / ("f" + std::to_string(i) + ".jpg"), std::ios::binary);
+    jpegs.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  for (const auto& p : std::filesystem::directory_iterator(dir.str())) std::filesystem::remove(p.path());
+  for (int i = 0; i < 4; ++i) {
+    a.gray = from_disk[static_cast<std::size_t>(i)];
+    ASSERT_EQ(next(memory, b), Status::kFrame) << i;
+    ASSERT_EQ(b.gray.type(), CV_8UC1);
+    ASSERT_EQ(b.gray.size(), a.gray.size());
+    if (i < 3) {  // a JPEG: exactly the daemon's MJPEG decode; OpenCV's (slow IDCT) within a few levels
+      cv::Mat expected;
+      ASSERT_TRUE(ips::JpegDecoder().decode_gray(jpegs[static_cast<std::size_t>(i)], expected));
+      EXPECT_EQ(cv::norm(expected, b.gray, cv::NORM_INF), 0.0) << i;
+      EXPECT_LE(cv::norm(a.gray, b.gray, cv::NORM_INF), 8.0) << i;
+      EXPECT_LT(cv::norm(a.gray, b.gray, cv::NORM_L1) / static_cast<double>(a.gray.total()), 1.0) << i;
+    } else {
+      EXPECT_EQ(cv::norm(a.gray, b.gray, cv::NORM_INF), 0.0) << i;  // the PNG, exactly
+    }
+    EXPECT_EQ(b.sequence, static_cast<std::uint64_t>(i));
+  }
+  EXPECT_EQ(next(memory, b), Status::kCorrupt);  // f4.jpg
+  ASSERT_EQ(next(memory, b), Status::kFrame);     // looped: f0 again, from memory
+  EXPECT_EQ(cv::norm(b.gray(cv::Rect(0, 0, 8, 8)), cv::NORM_INF) > 0, true);
+  ips::FileSourceOptions bad{dir / "f0.jpg", 30.0, true};
+  bad.preload = true;
+  EXPECT_THROW(bad.validate(), ips::InputError);
 }
 
 }  // namespace

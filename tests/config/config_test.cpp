@@ -117,6 +117,19 @@ detection:
   EXPECT_NO_THROW(Detector{d});
 }
 
+TEST_F(ConfigTest, DetectionTrackingKeys) {
+  EXPECT_EQ(parse(kMinimal).tracking, TrackerOptions{});  // on, full search every 6 frames
+  EXPECT_TRUE(TrackerOptions{}.enabled);
+  const DaemonConfig c = parse(std::string(kMinimal) + "detection: {tracking: false, full_search_period: 3, roi_margin: 1.5}\n");
+  EXPECT_FALSE(c.tracking.enabled);
+  EXPECT_EQ(c.tracking.full_search_period, 3);
+  EXPECT_DOUBLE_EQ(c.tracking.roi_margin, 1.5);
+  const std::string m = kMinimal;
+  expect_error(m + "detection: {tracking: maybe}\n", {"ipsd.yaml:7:", "detection.tracking: expected true or false"});
+  expect_error(m + "detection: {full_search_period: 0}\n", {"detection.full_search_period: must be 1..1000"});
+  expect_error(m + "detection: {roi_margin: 0.1}\n", {"detection.roi_margin: must be 0.25..100"});
+}
+
 TEST_F(ConfigTest, BadDetectionSettingsAndDictionaryNamesAreRefusedWithTheirPlace) {
   const std::string m = kMinimal;
   expect_error(m + "markers: {dictionary: DICT_4x4_100}\n",

@@ -1,0 +1,128 @@
+#include "ips/jpeg_region_decoder.h"
+
+#include <algorithm>
+#include <csetjmp>
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+// jpeglib.h needs FILE and size_t declared first.
+#include <jpeglib.h>
+
+namespace ips {
+
+namespace {
+
+struct ErrorManager {
+  jpeg_error_mgr pub;
+  std::jmp_buf jump;
+  char message[JMSG_LENGTH_MAX];
+};
+
+[[noreturn]] void on_error(j_common_ptr cinfo) {
+  auto* e = reinterpret_cast<ErrorManager*>(cinfo->err);
+  (*cinfo->err->format_message)(cinfo, e->message);
+  std::longjmp(e->jump, 1);
+}
+
+// Warnings (a truncated or damaged stream) are errors, as in JpegDecoder: a half-decoded
+// frame must not reach the detector. Trace messages (level > 0) are ignored.
+void on_message(j_common_ptr cinfo, int level) {
+  if (level < 0) on_error(cinfo);
+}
+
+}  // namespace
+
+struct JpegRegionDecoder::Impl {
+  jpeg_decompress_struct cinfo{};
+  ErrorManager err{};
+  std::vector<std::pair<int, int>> bands;  // [first, last) rows to decode
+};
+
+JpegRegionDecoder::JpegRegionDecoder() : impl_(new Impl) {
+  impl_->cinfo.err = jpeg_std_error(&impl_->err.pub);
+  impl_->err.pub.error_exit = on_error;
+  impl_->err.pub.emit_message = on_message;
+  if (setjmp(impl_->err.jump) != 0) {
+    delete impl_;
+    throw std::runtime_error("libjpeg: jpeg_create_decompress failed");
+  }
+  jpeg_create_decompress(&impl_->cinfo);
+}
+
+JpegRegionDecoder::~JpegRegionDecoder() {
+  jpeg_destroy_decompress(&impl_->cinfo);
+  delete impl_;
+}
+
+bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray,
+                               const std::vector<cv::Rect>& rois) {
+  jpeg_decompress_struct& c = impl_->cinfo;
+  auto& bands = impl_->bands;
+  if (jpeg.size() < 4) {
+    error_ = "too short to be a JPEG";
+    return false;
+  }
+  if (setjmp(impl_->err.jump) != 0) {
+    error_ = impl_->err.message;
+    jpeg_abort_decompress(&c);
+    return false;
+  }
+  jpeg_mem_src(&c, jpeg.data(), static_cast<unsigned long>(jpeg.size()));
+  jpeg_read_header(&c, TRUE);
+  c.out_color_space = JCS_GRAYSCALE;
+  c.dct_method = JDCT_IFAST;  // as JpegDecoder's TJFLAG_FASTDCT: the same pixels
+  const int width = static_cast<int>(c.image_width);
+  const int height = static_cast<int>(c.image_height);
+  gray.create(height, width, CV_8UC1);
+  // Rows: the ROIs' row ranges merged into bands; columns: one range covering every ROI.
+  bands.clear();
+  int x0 = width, x1 = 0;
+  for (const auto& r0 : rois) {
+    const cv::Rect r = r0 & cv::Rect(0, 0, width, height);
+    if (r.empty()) continue;
+    bands.emplace_back(r.y, r.y + r.height);
+    x0 = std::min(x0, r.x);
+    x1 = std::max(x1, r.x + r.width);
+  }
+  if (rois.empty()) {
+    bands.emplace_back(0, height);
+    x0 = 0;
+    x1 = width;
+  }
+  std::sort(bands.begin(), bands.end());
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < bands.size(); ++i) {
+    if (n > 0 && bands[i].first <= bands[n - 1].second) {
+      bands[n - 1].second = std::max(bands[n - 1].second, bands[i].second);
+    } else {
+      bands[n++] = bands[i];
+    }
+  }
+  bands.resize(n);
+  if (bands.empty()) {
+    jpeg_abort_decompress(&c);
+    return true;
+  }
+  jpeg_start_decompress(&c);
+  JDIMENSION xoff = static_cast<JDIMENSION>(x0);
+  JDIMENSION cw = static_cast<JDIMENSION>(x1 - x0);
+  if (x0 > 0 || x1 < width) jpeg_crop_scanline(&c, &xoff, &cw);  // widened to whole MCUs
+  for (const auto& [first, last] : bands) {
+    if (static_cast<int>(c.output_scanline) < first)
+      jpeg_skip_scanlines(&c, static_cast<JDIMENSION>(first) - c.output_scanline);
+    while (static_cast<int>(c.output_scanline) < last) {
+      JSAMPROW row = gray.ptr<JSAMPLE>(static_cast<int>(c.output_scanline)) + xoff;
+      jpeg_read_scanlines(&c, &row, 1);
+    }
+  }
+  // Rows below the last band are never entropy-decoded.
+  if (c.output_scanline < c.output_height) {
+    jpeg_abort_decompress(&c);
+  } else {
+    jpeg_finish_decompress(&c);
+  }
+  return true;
+}
+
+}  // namespace ips

@@ -1,0 +1,321 @@
+// Tracking between frames (#12) against the simulator's exact truth: a marker that appears is
+// acquired within the stated number of frames, a marker that jumps is re-acquired on the same
+// frame, and tracking gives the full search's markers and corners.
+#include "ips/tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "ips/detector.h"
+#include "ips/error.h"
+#include "ips/jpeg_decoder.h"
+#include "ips/jpeg_region_decoder.h"
+#include "ips/sim/renderer.h"
+
+namespace {
+
+using ips::sim::CameraRenderer;
+using ips::sim::MarkerPose;
+using ips::sim::PlacedMarker;
+using ips::sim::Scene;
+using ips::sim::SceneMarker;
+
+const std::filesystem::path kScene = std::filesystem::path(IPS_CONFIG_DIR) / "scenes/ou2023.yaml";
+constexpr double kFps = 30.0;
+
+Scene test_scene() {
+  Scene s = Scene::load(kScene);
+  s.markers.clear();
+  s.render.noise_sigma = 2.0;
+  return s;
+}
+
+// A marker moving on the floor at constant velocity (m/s) and turn rate (rad/s); `from` /
+// `until`: the frames it is in the scene; `jump_at`: from that frame on it is displaced by
+// (jump_x, jump_y) metres at once (picked up and put down elsewhere between two frames).
+struct Mover {
+  int id = 0;
+  double length = 0.20;
+  double x = 0, y = 0, vx = 0, vy = 0, yaw = 0, turn = 0;
+  int from = 0, until = 1 << 30;
+  int jump_at = -1;
+  double jump_x = 0, jump_y = 0;
+  bool present(int f) const { return f >= from && f < until; }
+  MarkerPose pose(int f) const {
+    const double t = f / kFps;
+    MarkerPose p{x + vx * t, y + vy * t, 0.01, yaw + turn * t};
+    if (jump_at >= 0 && f >= jump_at) {
+      p.x += jump_x;
+      p.y += jump_y;
+    }
+    return p;
+  }
+};
+
+struct Sequence {
+  const CameraRenderer& r;
+  std::vector<Mover> movers;
+  // Frame f as a camera delivers it (JPEG q90 4:2:0, decoded to grey) and its truth.
+  std::vector<std::uint8_t> jpeg(int f, std::vector<ips::sim::MarkerTruth>& truth) const {
+    std::vector<PlacedMarker> placed;
+    truth.clear();
+    for (const auto& m : movers) {
+      if (!m.present(f)) continue;
+      SceneMarker sm;
+      sm.id = m.id;
+      sm.length = m.length;
+      placed.push_back({sm, {m.pose(f)}});
+      const auto t = r.truth_of(sm, m.pose(f));
+      EXPECT_TRUE(t.visible) << "marker " << m.id << " frame " << f;
+      truth.push_back(t);
+    }
+    cv::Mat gray;
+    r.render_markers(placed, gray, static_cast<std::uint64_t>(f));
+    return ips::sim::encode_jpeg(gray, 90, true);
+  }
+  cv::Mat frame(int f, std::vector<ips::sim::MarkerTruth>& truth) const {
+    ips::JpegDecoder decoder;
+    cv::Mat gray;
+    EXPECT_TRUE(decoder.decode_gray(jpeg(f, truth), gray));
+    return gray;
+  }
+};
+
+double corner_error(const ips::MarkerDetection& d, const ips::sim::MarkerTruth& t) {
+  double e = 0;
+  for (std::size_t k = 0; k < 4; ++k)
+    e = std::max(e, std::hypot(d.corners_px[k].x - t.corners_px[k].x,
+                               d.corners_px[k].y - t.corners_px[k].y));
+  return e;
+}
+
+double side_px(const ips::sim::MarkerTruth& t) {
+  double s = 0;
+  for (std::size_t k = 0; k < 4; ++k)
+    s += std::hypot(t.corners_px[(k + 1) % 4].x - t.corners_px[k].x,
+                    t.corners_px[(k + 1) % 4].y - t.corners_px[k].y);
+  return s / 4;
+}
+
+const ips::MarkerDetection* find(const std::vector<ips::MarkerDetection>& found, int id) {
+  for (const auto& d : found)
+    if (d.id == id) return &d;
+  return nullptr;
+}
+
+// Every reported marker is a true one at its true corners (nothing the truth does not have).
+void expect_true_markers(const std::vector<ips::MarkerDetection>& found,
+                         const std::vector<ips::sim::MarkerTruth>& truth, int f) {
+  for (const auto& d : found) {
+    const auto t =
+        std::find_if(truth.begin(), truth.end(), [&](const auto& x) { return x.id == d.id; });
+    ASSERT_NE(t, truth.end()) << "frame " << f << ": marker " << d.id << " is not in the scene";
+    // 0.5 px for 20 cm markers; 1 px for 7.5 cm ones at the edge of the view (24-35 px).
+    EXPECT_LT(corner_error(d, *t), side_px(*t) > 40 ? 0.5 : 1.0)
+        << "frame " << f << " marker " << d.id;
+  }
+}
+
+TEST(Tracker, RejectsInvalidOptions) {
+  ips::TrackerOptions o;
+  o.full_search_period = 0;
+  EXPECT_THROW(ips::DetectionTracker{o}, ips::InputError);
+  o = {};
+  o.roi_margin = 0.1;
+  EXPECT_THROW(ips::DetectionTracker{o}, ips::InputError);
+}
+
+// One marker tracked at 1 m/s while three others appear on frames that are not full-search
+// frames (period 6, phase 0: full searches on frames 0, 6, 12, 18, 24): each is acquired
+// within full_search_period frames counting the frame it appears in, and between full
+// searches only ROIs are searched.
+TEST(Tracker, MarkerAppearingMidSequenceIsAcquiredWithinThePeriod) {
+  const Scene scene = test_scene();
+  const CameraRenderer r(scene, scene.camera_index("red"));
+  const auto& C = r.camera().position;
+  Sequence seq{r, {}};
+  seq.movers.push_back({.id = 3, .x = C.x() - 0.6, .y = C.y() - 0.3, .vx = 1.0, .turn = 1.0});
+  seq.movers.push_back({.id = 11,
+                        .x = C.x() + 0.5,
+                        .y = C.y() + 0.4,
+                        .vy = -0.3,
+                        .from = 7});  // worst case: next full at 12
+  seq.movers.push_back(
+      {.id = 25, .x = C.x() - 0.9, .y = C.y() + 0.5, .vx = 0.5, .from = 11});  // best: full at 12
+  seq.movers.push_back({.id = 42,
+                        .length = 0.075,
+                        .x = C.x() + 1.6,
+                        .y = C.y() - 0.8,
+                        .from = 14});  // small, at the edge
+  ips::TrackerOptions opt;
+  const int period = opt.full_search_period;
+  ips::DetectionTracker tracker(opt, 0);
+  ips::Detector detector;
+  const ips::CameraModel& cam = r.camera().model;
+  std::map<int, int> acquired;
+  int roi_frames = 0;
+  for (int f = 0; f < 26; ++f) {
+    std::vector<ips::sim::MarkerTruth> truth;
+    const cv::Mat gray = seq.frame(f, truth);
+    const bool full = tracker.plan(gray.size()).full;
+    roi_frames += full ? 0 : 1;
+    const auto found = tracker.track(detector, gray, &cam);
+    expect_true_markers(found, truth, f);
+    ASSERT_NE(find(found, 3), nullptr) << "tracked marker lost at frame " << f;
+    for (const auto& d : found)
+      if (!acquired.count(d.id)) acquired[d.id] = f;
+  }
+  for (const auto& m : seq.movers) {
+    ASSERT_TRUE(acquired.count(m.id)) << "marker " << m.id << " never acquired";
+    EXPECT_LE(acquired[m.id] - m.from + 1, period)
+        << "marker " << m.id << " appeared at frame " << m.from;
+  }
+  EXPECT_EQ(acquired[11], 12);  // not before the next full search: the bound is reached
+  EXPECT_GE(roi_frames, 26 - 26 / period - 2);  // nearly every other frame searched ROIs only
+}
+
+// A tracked marker that jumps 1 m between two frames (far outside its ROI) is found on the
+// frame it jumps, at its true corners: the lost track makes that frame a full search.
+TEST(Tracker, MarkerThatJumpsIsReacquiredOnTheSameFrame) {
+  const Scene scene = test_scene();
+  const CameraRenderer r(scene, scene.camera_index("red"));
+  const auto& C = r.camera().position;
+  Sequence seq{r, {}};
+  seq.movers.push_back({.id = 7,
+                        .x = C.x() - 0.5,
+                        .y = C.y(),
+                        .vx = 0.8,
+                        .jump_at = 9,
+                        .jump_x = 0.3,
+                        .jump_y = 0.6});
+  seq.movers.push_back({.id = 8, .x = C.x() + 0.8, .y = C.y() - 0.4, .vy = 0.5});
+  ips::DetectionTracker tracker({}, 0);
+  ips::Detector detector;
+  for (int f = 0; f < 12; ++f) {
+    std::vector<ips::sim::MarkerTruth> truth;
+    const cv::Mat gray = seq.frame(f, truth);
+    const auto found = tracker.track(detector, gray, &r.camera().model);
+    expect_true_markers(found, truth, f);
+    EXPECT_NE(find(found, 7), nullptr) << "frame " << f;
+    EXPECT_NE(find(found, 8), nullptr) << "frame " << f;
+  }
+  EXPECT_EQ(tracker.counters().fallbacks, 1u);                // the jump, and nothing else
+  EXPECT_EQ(tracker.counters().full_searches, 1u + 1u + 1u);  // frames 0, 6 and the jump
+}
+
+// Tracking on and off on the same frames: the same markers with corners within 0.05 px, for
+// five markers moving at up to 1 m/s (one leaves the view half way: its track ends).
+TEST(Tracker, GivesTheFullSearchMarkersAndCorners) {
+  const Scene scene = test_scene();
+  const CameraRenderer r(scene, scene.camera_index("red"));
+  const auto& C = r.camera().position;
+  Sequence seq{r, {}};
+  seq.movers.push_back({.id = 1, .x = C.x() - 0.8, .y = C.y() - 0.4, .vx = 1.0, .turn = 0.5});
+  seq.movers.push_back({.id = 2, .x = C.x() + 0.6, .y = C.y() + 0.3, .vx = -0.7, .vy = -0.7});
+  seq.movers.push_back(
+      {.id = 5, .x = C.x(), .y = C.y() + 0.45, .vy = -0.2, .yaw = 1.0, .turn = -2.0});
+  seq.movers.push_back({.id = 9, .x = C.x() + 1.0, .y = C.y() - 0.5});
+  seq.movers.push_back(
+      {.id = 14, .length = 0.075, .x = C.x() - 1.2, .y = C.y() + 0.5, .vx = 0.3, .until = 10});
+  ips::DetectionTracker tracker({}, 3);
+  ips::Detector tracked_detector, full_detector;
+  const ips::CameraModel& cam = r.camera().model;
+  int compared = 0, missed = 0;
+  for (int f = 0; f < 18; ++f) {
+    std::vector<ips::sim::MarkerTruth> truth;
+    const cv::Mat gray = seq.frame(f, truth);
+    const auto tracked = tracker.track(tracked_detector, gray, &cam);
+    const auto full = full_detector.detect(gray, &cam);
+    expect_true_markers(full, truth, f);
+    missed += static_cast<int>(truth.size() - full.size());
+    ASSERT_EQ(tracked.size(), full.size()) << "frame " << f;
+    for (const auto& d : full) {
+      const auto* t = find(tracked, d.id);
+      ASSERT_NE(t, nullptr) << "frame " << f << " marker " << d.id;
+      for (std::size_t k = 0; k < 4; ++k) {
+        EXPECT_NEAR(t->corners_px[k].x, d.corners_px[k].x, 0.05)
+            << "frame " << f << " marker " << d.id;
+        EXPECT_NEAR(t->corners_px[k].y, d.corners_px[k].y, 0.05)
+            << "frame " << f << " marker " << d.id;
+      }
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 18 * 4 + 9);
+  EXPECT_EQ(missed, 0);  // the full search finds every marker (truth), so tracking does too
+  EXPECT_LE(tracker.counters().full_searches, 5u);  // frames 0, 3, 9, 15 (+ the marker leaving)
+}
+
+// Tracking off: every frame is a full search.
+TEST(Tracker, DisabledSearchesEveryFrameInFull) {
+  ips::TrackerOptions o;
+  o.enabled = false;
+  ips::DetectionTracker tracker(o);
+  ips::Detector detector;
+  const Scene scene = test_scene();
+  const CameraRenderer r(scene, scene.camera_index("red"));
+  const auto& C = r.camera().position;
+  Sequence seq{r, {{.id = 4, .x = C.x(), .y = C.y(), .vx = 0.5}}};
+  for (int f = 0; f < 3; ++f) {
+    std::vector<ips::sim::MarkerTruth> truth;
+    const cv::Mat gray = seq.frame(f, truth);
+    EXPECT_TRUE(tracker.plan(gray.size()).full);
+    EXPECT_EQ(tracker.track(detector, gray, &r.camera().model).size(), 1u);
+  }
+  EXPECT_EQ(tracker.counters().full_searches, 3u);
+}
+
+// The partial decode gives a full decode's pixels inside the ROIs, and tracking on it finds
+// what tracking on the full decode finds.
+TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
+  const Scene scene = test_scene();
+  const CameraRenderer r(scene, scene.camera_index("red"));
+  const auto& C = r.camera().position;
+  Sequence seq{r,
+               {{.id = 4, .x = C.x() - 0.3, .y = C.y(), .vx = 0.5},
+                {.id = 6, .x = C.x() + 0.9, .y = C.y() + 0.5}}};
+  ips::JpegDecoder full_decoder;
+  ips::JpegRegionDecoder region_decoder;
+  ips::DetectionTracker tracker;
+  ips::Detector detector;
+  cv::Mat full, partial;
+  int roi_frames = 0;
+  for (int f = 0; f < 4; ++f) {
+    std::vector<ips::sim::MarkerTruth> truth;
+    const auto jpeg = seq.jpeg(f, truth);
+    ASSERT_TRUE(full_decoder.decode_gray(jpeg, full));
+    const ips::TrackPlan plan = tracker.plan(full.size());
+    partial = cv::Mat(full.size(), CV_8UC1, cv::Scalar(0));
+    ASSERT_TRUE(
+        region_decoder.decode(jpeg, partial, plan.full ? std::vector<cv::Rect>{} : plan.rois))
+        << region_decoder.error();
+    if (plan.full) {
+      EXPECT_EQ(cv::norm(full, partial, cv::NORM_INF), 0.0);
+    } else {
+      ++roi_frames;
+      ASSERT_EQ(plan.rois.size(), 2u);
+      for (const auto& roi : plan.rois)
+        EXPECT_EQ(cv::norm(full(roi), partial(roi), cv::NORM_INF), 0.0);
+      // Rows below the lowest ROI were not decoded at all.
+      int bottom = 0;
+      for (const auto& roi : plan.rois) bottom = std::max(bottom, roi.y + roi.height);
+      ASSERT_LT(bottom, full.rows - 16);
+      EXPECT_EQ(cv::countNonZero(partial.rowRange(bottom, full.rows)), 0);
+    }
+    std::vector<ips::MarkerDetection> found;
+    ASSERT_TRUE(tracker.detect(detector, partial, plan, &r.camera().model, found));
+    ASSERT_EQ(found.size(), 2u);
+    expect_true_markers(found, truth, f);
+  }
+  EXPECT_EQ(roi_frames, 3);
+  const std::vector<std::uint8_t> garbage(5000, 0x55);
+  EXPECT_FALSE(region_decoder.decode(garbage, partial, {}));
+  EXPECT_FALSE(region_decoder.error().empty());
+}
+
+}  // namespace
