@@ -16,8 +16,10 @@ namespace ips {
 class Publisher {
  public:
   /// Opens every output. Throws ips::InputError for a value that is not valid for its type,
-  /// naming outputs[i].
-  explicit Publisher(const std::vector<OutputConfig>& outputs);
+  /// naming outputs[i]. `validate_only` (ipsd --check): outputs that would take something a
+  /// running daemon holds or announce themselves on the network (a subscriptions listening port,
+  /// a DDS participant) are not opened; the others are, which resolves and checks their addresses.
+  explicit Publisher(const std::vector<OutputConfig>& outputs, bool validate_only = false);
   ~Publisher();
   Publisher(const Publisher&) = delete;
   Publisher& operator=(const Publisher&) = delete;

@@ -37,7 +37,7 @@ struct Daemon::Pipeline {
 Daemon::Daemon(std::filesystem::path config_path, Mode mode) : config_path_(std::move(config_path)) {
   const ips::DaemonConfig config = ips::load_config(config_path_);
   spdlog::set_level(spdlog::level::from_str(config.log_level));
-  runtime_.set(build_runtime(config, nullptr));
+  runtime_.set(build_runtime(config, nullptr, mode == Mode::kCheck));
   if (mode == Mode::kRun && !config.status.socket.empty()) status_socket_.emplace(config.status.socket);
 }
 

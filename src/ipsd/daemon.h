@@ -19,8 +19,9 @@ namespace ipsd {
 
 class Daemon {
  public:
-  /// kCheck (`ipsd --check`) validates without taking what a running daemon holds: it does not
-  /// create the status socket (which would replace a running daemon's socket file).
+  /// kCheck (`ipsd --check`) validates without taking what a running daemon holds: no status
+  /// socket (it would replace a running daemon's socket file), no subscriptions port, no DDS
+  /// participant (see ips::Publisher's validate_only).
   enum class Mode { kRun, kCheck };
   /// Loads and checks everything; throws ips::InputError (exit 2) for a bad configuration,
   /// model file, intrinsics or output.

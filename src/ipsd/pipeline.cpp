@@ -9,7 +9,8 @@
 
 namespace ipsd {
 
-std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, const Runtime* previous) {
+std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, const Runtime* previous,
+                                             bool validate_only) {
   auto r = std::make_shared<Runtime>();
   r->config = config;
   try {
@@ -28,7 +29,7 @@ std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, co
     r->publisher = previous->publisher;
   } else {
     try {
-      r->publisher = std::make_shared<ips::Publisher>(config.outputs);
+      r->publisher = std::make_shared<ips::Publisher>(config.outputs, validate_only);
     } catch (const ips::InputError& e) {
       throw ips::InputError(config.file.string() + ": " + e.what());
     }

@@ -36,7 +36,9 @@ struct Runtime {
 /// Loads the model file, the intrinsics, resolves the fusion method and opens the outputs
 /// (reusing `previous`'s publisher when the outputs did not change, so sequence numbers
 /// continue). Throws ips::InputError naming the key/file; nothing is half-applied.
-std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, const Runtime* previous);
+/// `validate_only` (ipsd --check): see ips::Publisher.
+std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, const Runtime* previous,
+                                             bool validate_only = false);
 
 class RuntimeHolder {
  public:

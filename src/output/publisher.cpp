@@ -2,8 +2,12 @@
 
 namespace ips {
 
-Publisher::Publisher(const std::vector<OutputConfig>& outputs) {
-  for (std::size_t i = 0; i < outputs.size(); ++i) sinks_.push_back(make_output_sink(outputs[i], static_cast<int>(i)));
+Publisher::Publisher(const std::vector<OutputConfig>& outputs, bool validate_only) {
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const OutputConfig::Kind kind = outputs[i].kind;
+    if (validate_only && (kind == OutputConfig::Kind::kSubscriptions || kind == OutputConfig::Kind::kRos2)) continue;
+    sinks_.push_back(make_output_sink(outputs[i], static_cast<int>(i)));
+  }
 }
 
 Publisher::~Publisher() = default;

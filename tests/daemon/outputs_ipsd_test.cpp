@@ -149,6 +149,13 @@ TEST_F(OutputsIpsdTest, MavlinkMatchesTheStreamAndSubscribersGetTheirOwn) {
   EXPECT_NE(printed.find("output subscriptions on 127.0.0.1:" + std::to_string(sub_port)), std::string::npos) << printed;
   EXPECT_NE(printed.find("refused_subnet "), std::string::npos) << printed;
   EXPECT_EQ(printed.find("refused_subnet 0"), std::string::npos) << printed;  // the outsider resends each second
+  // `ipsd --check` on the running daemon's config (systemd's ExecCondition, an admin's check)
+  // neither fails on the subscriptions port the daemon holds nor takes its status socket.
+  const fs::path check_log = *dir_ / "check.log";
+  EXPECT_EQ(test::run({test::bin("ipsd"), "--config", cfg.string(), "--check"}, check_log), 0)
+      << test::read_file(check_log);
+  EXPECT_EQ(test::run({test::bin("ips"), "status", "--socket", (*dir_ / "status.sock").string()}, status_log), 0)
+      << "ipsd --check took the running daemon's status socket";
   const std::int64_t epoch = status["synthetic_epoch_mono_ns"];
   ::kill(pid, SIGTERM);
   EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(10)), 0);
