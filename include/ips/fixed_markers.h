@@ -31,7 +31,7 @@ struct FixedMarkerEvent {
 struct FixedMarkerReading {
   int camera_index = -1;
   int id = -1;
-  double error_m = 0;       ///< median distance over the window, metres
+  double error_m = 0;       ///< median horizontal distance over the window, metres
   std::size_t samples = 0;  ///< observations in the window
   bool seen = false;        ///< observed within the window before `now`
   bool moved = false;       ///< currently over the threshold (a warning was logged)

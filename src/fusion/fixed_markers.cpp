@@ -38,7 +38,9 @@ std::vector<FixedMarkerEvent> FixedMarkerMonitor::add(const FrameObservations& b
     const auto f = fixed_.find(o.id);
     if (f == fixed_.end() || !o.height_known || !o.p_world.allFinite()) continue;
     Pair& p = pairs_[{batch.camera_index, o.id}];
-    p.errors.emplace_back(o.t_mono_ns, (o.p_world - f->second).norm());
+    // Horizontal distance: a tilted or shifted camera moves its markers sideways, while z is the
+    // known height (plane mappers) or the depth formula's cm-level estimate (3D mappers).
+    p.errors.emplace_back(o.t_mono_ns, (o.p_world - f->second).head<2>().norm());
     while (!p.errors.empty() && p.errors.front().first < o.t_mono_ns - window_ns) p.errors.pop_front();
     p.median = median_of(p.errors);
     if (p.errors.size() < options_.min_samples) continue;

@@ -1,6 +1,6 @@
 // The bumped-camera check end to end: the real ipsd on two synthetic cameras of the published
-// layout, a reference marker lying on the floor at its surveyed position (markers.ids.7.fixed)
-// and a robot. Undisturbed: no warning, a small error in the status, marker 7 never in the
+// layout, two reference markers lying on the floor at their surveyed positions
+// (markers.ids.<id>.fixed; 7 in white's view, 8 in red's) and a robot. Undisturbed: no warning, a small error in the status, marker 7 never in the
 // stream. Then camera 'white' is rotated by 1 degree (the scene file it renders is replaced and
 // the configuration reloaded, which recreates the synthetic sources) while its model stays the
 // same: the warning names 'white', and only 'white', within 2 s of the reload.
@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -25,14 +26,15 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr double kFps = 5.0;
-const char* kWarning = "may have moved: fixed marker 7";
+const char* kWarning = "may have moved: fixed marker";
 
 std::string config_text(const fs::path& dir, std::uint16_t port, const std::string& white_scene) {
   const std::string fps = std::to_string(kFps);
   return "cameras:\n"
          "  - {name: red, source: synthetic, scene: scene.yaml, fps: " + fps + "}\n"
          "  - {name: white, source: synthetic, scene: " + white_scene + ", scene_camera: white, fps: " + fps + "}\n"
-         "markers:\n  ids:\n    1: {height: 0.15}\n    7: {name: origin, fixed: [2.4, 1.3, 0.0]}\n"
+         "markers:\n  ids:\n    1: {height: 0.15}\n    7: {name: origin, fixed: [3.6, 2.2, 0.0]}\n"
+         "    8: {fixed: [2.4, 1.1, 0.0]}\n"
          "model_file: model.json\n"
          "fusion: {method: mean, window: 0.02}\n"
          "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(port) + ", format: binary}\n"
@@ -46,8 +48,9 @@ std::size_t count(const std::string& text, const std::string& needle) {
   return n;
 }
 
-// camera name -> (error_m, seen, moved) of fixed marker 7 from the status socket.
+// camera name -> the fixed marker it reports (each camera sees one) from the status socket.
 struct Seen {
+  int id = -1;
   double error_m = NAN;
   bool seen = false, moved = false;
 };
@@ -57,7 +60,8 @@ std::map<std::string, Seen> fixed_status(const fs::path& socket) {
   if (!j.is_object()) return out;
   for (const auto& c : j["cameras"])
     for (const auto& f : c.value("fixed_markers", nlohmann::json::array()))
-      if (f.value("id", -1) == 7) out[c["name"]] = {f["error_m"], f["seen"], f["moved"]};
+      out[c.value("name", "")] = {f.value("id", -1), f.value("error_m", NAN), f.value("seen", false),
+                                  f.value("moved", false)};
   return out;
 }
 
@@ -71,16 +75,21 @@ TEST(FixedMarkerIpsd, ABumpedCameraIsNamedWithinTwoSecondsAndTheReferenceIsNever
     trajectory: {type: circle, center: [2.4, 2.4], radius: 0.8, speed: 0.3}
   - id: 7
     length: 0.20
+    x: 3.6
+    y: 2.2
+    height: 0.0
+  - id: 8
+    length: 0.20
     x: 2.4
-    y: 1.3
+    y: 1.1
     height: 0.0
 )");
   std::ofstream(dir / "scene.yaml") << scene;
-  // The same lab with camera white rolled by 1 degree about world x (its model is not refitted).
+  // The same lab with camera white pitched by 1 degree about world y (its model is not refitted).
   const std::string white_rotation = "rotation_deg: [-1.27, 0.29, 0.00]";
   std::string bumped = scene;
   ASSERT_NE(bumped.find(white_rotation), std::string::npos);
-  bumped.replace(bumped.find(white_rotation), white_rotation.size(), "rotation_deg: [-0.27, 0.29, 0.00]");
+  bumped.replace(bumped.find(white_rotation), white_rotation.size(), "rotation_deg: [-1.27, 1.29, 0.00]");
   std::ofstream(dir / "scene_bumped.yaml") << bumped;
   test::write_plane_model(dir / "scene.yaml", dir / "model.json");
 
@@ -99,7 +108,7 @@ TEST(FixedMarkerIpsd, ABumpedCameraIsNamedWithinTwoSecondsAndTheReferenceIsNever
       ++updates;
       for (const auto& m : decode_datagram(*bytes).markers) {
         robot += m.id == 1;
-        reference += m.id == 7;
+        reference += m.id == 7 || m.id == 8;
       }
     }
   };
@@ -111,6 +120,7 @@ TEST(FixedMarkerIpsd, ABumpedCameraIsNamedWithinTwoSecondsAndTheReferenceIsNever
   EXPECT_EQ(count(test::read_file(log), kWarning), 0u) << test::read_file(log);
   for (const char* name : {"red", "white"}) {
     ASSERT_TRUE(before.count(name)) << name << " reports no fixed marker\n" << test::read_file(log);
+    EXPECT_EQ(before.at(name).id, std::string(name) == "white" ? 7 : 8);
     EXPECT_TRUE(before.at(name).seen) << name;
     EXPECT_FALSE(before.at(name).moved) << name;
     EXPECT_LT(before.at(name).error_m, 0.015) << name;
@@ -118,6 +128,7 @@ TEST(FixedMarkerIpsd, ABumpedCameraIsNamedWithinTwoSecondsAndTheReferenceIsNever
   ASSERT_EQ(test::run({test::bin("ips"), "status", "--socket", socket.string()}, dir / "status.txt"), 0);
   const std::string text = test::read_file(dir / "status.txt");
   EXPECT_NE(text.find("fixed marker 7: "), std::string::npos) << text;
+  EXPECT_NE(text.find("fixed marker 8: "), std::string::npos) << text;
 
   // The bump: white now renders the rotated scene; the reload restarts the camera threads.
   std::ofstream(cfg) << config_text(dir, rx.port, "scene_bumped.yaml");
@@ -141,7 +152,7 @@ TEST(FixedMarkerIpsd, ABumpedCameraIsNamedWithinTwoSecondsAndTheReferenceIsNever
   EXPECT_GT(after.at("white").error_m, 0.03);
   EXPECT_FALSE(after.at("red").moved);
   EXPECT_LT(after.at("red").error_m, 0.015);
-  std::printf("[ fixed   ] error of marker 7 before: red %.2f cm, white %.2f cm; after white's 1 deg bump: "
+  std::printf("[ fixed   ] before: red (marker 8) %.2f cm, white (marker 7) %.2f cm; after white's 1 deg bump: "
               "white %.2f cm, red %.2f cm; warning %.2f s after the reload\n",
               100 * before.at("red").error_m, 100 * before.at("white").error_m, 100 * after.at("white").error_m,
               100 * after.at("red").error_m, warned_after_s);
