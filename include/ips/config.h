@@ -4,6 +4,7 @@
 // column and key ("ipsd.yaml:12:5: cameras[0].fps: ...").
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -75,6 +76,10 @@ struct MarkerInfo {
   std::string name;                              ///< optional, shown by `ips listen`
   double edge_length = std::nan("");             ///< metres; NaN = markers.edge_length
   double height = std::nan("");                  ///< known world z, metres; NaN = markers.height
+  /// A marker that stays put (a reference left on the floor): its surveyed world position,
+  /// metres. ipsd checks every camera's view of it (README "survey", bumped camera).
+  std::optional<std::array<double, 3>> fixed;
+  bool publish = true;  ///< false: never sent to any output; default false for fixed markers
 };
 
 struct MarkerConfig {
@@ -86,6 +91,8 @@ struct MarkerConfig {
   MarkerSizes sizes() const;
   /// Known world z of marker `id` (per-ID, else the default), NaN if unknown.
   double height_of(int id) const;
+  /// False for markers configured with publish: false (fixed markers by default).
+  bool published(int id) const;
 };
 
 /// One vehicle of a MAVLink output (outputs[i].vehicles[j]): the marker it carries.
@@ -171,6 +178,9 @@ struct FusionConfig {
   double max_wait_s = 0.050;    ///< obsolete (frame sets are gone); accepted so old files still load
   bool kalman = false;          ///< constant-velocity Kalman filter per marker (adds velocity)
   KalmanOptions kalman_options;
+  /// A camera whose view of a fixed marker is this far from its surveyed position is reported
+  /// as possibly moved, metres.
+  double fixed_marker_warn_m = 0.03;
 };
 
 struct StatusConfig {

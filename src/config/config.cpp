@@ -42,6 +42,11 @@ double MarkerConfig::height_of(int id) const {
   return height;
 }
 
+bool MarkerConfig::published(int id) const {
+  auto it = ids.find(id);
+  return it == ids.end() || it->second.publish;
+}
+
 std::string OutputConfig::describe() const {
   if (kind == Kind::kRos2) return "ros2 domain " + std::to_string(ros2.domain) + " /" + ros2.prefix;
   const std::string where = address + ":" + std::to_string(port);
@@ -145,6 +150,25 @@ MarkerConfig parse_markers(const YAML::Node& n, const std::string& file) {
       e.get("name", info.name);
       if (e.has("edge_length")) e.get_number("edge_length", info.edge_length, 0.0, true);
       if (e.has("height")) e.get("height", info.height);
+      if (e.has("fixed")) {
+        const YAML::Node f = e.node("fixed");
+        std::array<double, 3> p{};
+        bool ok = f.IsSequence() && f.size() == 3;
+        for (std::size_t i = 0; ok && i < 3; ++i) {
+          try {
+            p[i] = f[i].as<double>();
+            ok = f[i].IsScalar() && std::isfinite(p[i]);
+          } catch (const YAML::Exception&) {
+            ok = false;
+          }
+        }
+        if (!ok) e.fail(f, e.key("fixed"), "expected [x, y, z]: three finite numbers (world metres)");
+        info.fixed = p;
+        // A fixed marker's height is known: its surveyed z (unless given explicitly).
+        if (std::isnan(info.height)) info.height = p[2];
+      }
+      info.publish = !info.fixed;  // fixed markers are not robots unless configured to be
+      e.get("publish", info.publish);
       e.finish();
       m.ids[id] = info;
     }
@@ -320,6 +344,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
     if (c.fusion.output_rate_hz > 1000)
       f.fail(f.raw()["output_rate"], "fusion.output_rate", "must be <= 1000 Hz (0 = one update per camera frame)");
     f.get_number("max_wait", c.fusion.max_wait_s, 0.0, true);
+    f.get_number("fixed_marker_warn", c.fusion.fixed_marker_warn_m, 0.0, true);
     if (f.has("kalman")) {
       MapReader k(f.node("kalman"), "fusion.kalman", file);
       k.get("enabled", c.fusion.kalman);

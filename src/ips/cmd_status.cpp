@@ -73,6 +73,11 @@ int run_status(const StatusOptions& o) {
                 static_cast<unsigned long long>(c.value("errors", 0ULL)), c.value("source", "").c_str());
     const std::string err = c.value("last_error", "");
     if (c.value("state", "") != "open" && !err.empty()) std::printf("             last error: %s\n", err.c_str());
+    // Fixed reference markers as this camera alone maps them (a bumped camera shows here).
+    for (const auto& f : c.value("fixed_markers", nlohmann::json::array()))
+      std::printf("             fixed marker %d: %.1f cm from its surveyed position%s%s\n", f.value("id", -1),
+                  100 * f.value("error_m", 0.0), f.value("seen", false) ? "" : " (not seen in the last second)",
+                  f.value("moved", false) ? "  MAY HAVE MOVED" : "");
   }
   for (const auto& out : j.value("outputs", nlohmann::json::array())) {
     std::printf("  output %s: %llu datagrams, %llu send errors", out.value("output", "?").c_str(),

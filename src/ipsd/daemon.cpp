@@ -30,6 +30,7 @@ struct Daemon::Pipeline {
   std::vector<std::string> names;
   FusionStats fusion_stats;
   std::vector<std::unique_ptr<CameraWorker>> cameras;
+  ips::FixedMarkerMonitor fixed{{}, {}};  // configured by the fusion thread; outlives it
   std::unique_ptr<FusionWorker> fusion;
   RateSampler rates;
 };
@@ -75,6 +76,7 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
     }
   }
   p->fusion = std::make_unique<FusionWorker>(runtime_, p->queue, p->camera_ptrs, p->fusion_stats);
+  p->fusion->set_fixed_monitor(&p->fixed);
   if (web_) {
     const auto taps = web_->set_cameras(p->names);
     for (std::size_t i = 0; i < p->cameras.size(); ++i) p->cameras[i]->set_tap(taps[i]);
@@ -172,6 +174,12 @@ nlohmann::json Daemon::status_document() {
   auto j = status_json(pipeline_->rates, pipeline_->fusion_stats, pipeline_->queue.dropped(), *runtime_.get(),
                        started_ns_, synthetic_epoch_ns_);
   if (web_) j["web"] = web_counters_json(web_->counters());
+  // Per camera: its own view of each fixed marker (README "survey", bumped camera).
+  for (auto& c : j["cameras"]) c["fixed_markers"] = nlohmann::json::array();
+  for (const auto& r : pipeline_->fixed.readings(ips::monotonic_ns()))
+    if (r.camera_index >= 0 && static_cast<std::size_t>(r.camera_index) < j["cameras"].size())
+      j["cameras"][static_cast<std::size_t>(r.camera_index)]["fixed_markers"].push_back(
+          {{"id", r.id}, {"error_m", r.error_m}, {"samples", r.samples}, {"seen", r.seen}, {"moved", r.moved}});
   return j;
 }
 

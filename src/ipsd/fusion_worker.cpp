@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include <spdlog/spdlog.h>
+
 #include "ips/clock.h"
 
 namespace ipsd {
@@ -23,6 +25,32 @@ ips::TrackFusionOptions fusion_options(const ips::FusionConfig& c) {
   o.kalman = c.kalman;
   o.kalman_options = c.kalman_options;
   return o;
+}
+
+// The fixed markers' surveyed positions (markers.ids.<id>.fixed) and the check's threshold.
+std::map<int, Eigen::Vector3d> fixed_positions(const ips::MarkerConfig& m) {
+  std::map<int, Eigen::Vector3d> out;
+  for (const auto& [id, info] : m.ids)
+    if (info.fixed) out[id] = Eigen::Vector3d((*info.fixed)[0], (*info.fixed)[1], (*info.fixed)[2]);
+  return out;
+}
+
+ips::FixedMarkerMonitor::Options monitor_options(const ips::FusionConfig& c) {
+  ips::FixedMarkerMonitor::Options o;
+  o.warn_m = c.fixed_marker_warn_m;
+  return o;
+}
+
+void log_events(const std::vector<ips::FixedMarkerEvent>& events, const ips::DaemonConfig& config) {
+  for (const auto& e : events) {
+    const std::string& camera = config.cameras.at(static_cast<std::size_t>(e.camera_index)).name;
+    if (e.kind == ips::FixedMarkerEvent::Kind::kMoved)
+      spdlog::warn("camera '{}' may have moved: fixed marker {} seen {:.1f} cm from its surveyed position", camera,
+                   e.id, 100 * e.error_m);
+    else
+      spdlog::info("camera '{}': fixed marker {} back to {:.1f} cm from its surveyed position", camera, e.id,
+                   100 * e.error_m);
+  }
 }
 
 bool same_options(const ips::TrackFusionOptions& a, const ips::TrackFusionOptions& b) {
@@ -60,6 +88,7 @@ void FusionWorker::run() {
   std::uint64_t counted_late = 0, counted_too_old = 0;
   std::int64_t next_tick = 0;  // fixed-rate output: next publish time, CLOCK_MONOTONIC
   std::vector<ips::FusedMarker> states;
+  if (fixed_) fixed_->configure(fixed_positions(rt->config.markers), monitor_options(rt->config.fusion));
 
   while (!stop_) {
     const std::int64_t now = ips::monotonic_ns();
@@ -76,6 +105,7 @@ void FusionWorker::run() {
         fusion = std::move(fresh);
       }
       rt = latest;
+      if (fixed_) fixed_->configure(fixed_positions(rt->config.markers), monitor_options(rt->config.fusion));
     }
     const double rate = rt->config.fusion.output_rate_hz;
     const auto period = rate > 0 ? static_cast<std::int64_t>(std::llround(1e9 / rate)) : 0;
@@ -86,6 +116,8 @@ void FusionWorker::run() {
         period > 0 ? std::clamp<std::int64_t>(next_tick - now, 0, kPopTimeoutNs) : kPopTimeoutNs;
     ips::FrameObservations batch;
     if (queue_.pop(batch, wait)) {
+      // Each camera's own view of the fixed markers, before fusion mixes the cameras.
+      if (fixed_ && !fixed_->empty()) log_events(fixed_->add(batch), rt->config);
       states.clear();
       fusion.add(batch, *rt->fusion, period > 0 ? nullptr : &states);
       if (period == 0) publish(states, batch.t_mono_ns, batch.t_real_ns, batch.t_delivered_ns, *rt);
@@ -113,6 +145,9 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, std::int
   d.update = update_++;
   d.has_velocity = rt.config.fusion.kalman;
   for (const ips::FusedMarker& f : states) {
+    // The one place every output (UDP, ROS 2, MAVLink, subscriptions, web) gets markers from:
+    // markers with publish: false (fixed references by default) stop here.
+    if (!rt.config.markers.published(f.id)) continue;
     ips::MarkerRecord m;
     m.id = static_cast<std::uint32_t>(f.id);
     m.camera_mask = f.camera_mask;

@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "ips/fixed_markers.h"
 #include "ips/track_fusion.h"
 #include "ips/web.h"
 #include "pipeline.h"
@@ -20,6 +21,8 @@ class FusionWorker {
   ~FusionWorker();
   /// The web view gets a copy of every update (before start(); nullptr = none).
   void set_web(ips::WebServer* web) { web_ = web; }
+  /// Every camera batch is also checked against the fixed markers (before start(); owned by the caller).
+  void set_fixed_monitor(ips::FixedMarkerMonitor* monitor) { fixed_ = monitor; }
   void start();
   void request_stop() { stop_ = true; }
   void join();
@@ -34,6 +37,7 @@ class FusionWorker {
   std::vector<CameraStats*> cameras_;
   FusionStats& stats_;
   ips::WebServer* web_ = nullptr;
+  ips::FixedMarkerMonitor* fixed_ = nullptr;
   std::atomic<bool> stop_{false};
   std::thread thread_;
   std::uint32_t update_ = 0;

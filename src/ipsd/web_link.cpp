@@ -38,7 +38,7 @@ std::string web_layout(const Runtime& rt) {
   }
   j["markers"] = nlohmann::json::object();
   for (const auto& [id, info] : config.markers.ids)
-    if (!info.name.empty()) j["markers"][std::to_string(id)] = info.name;
+    if (!info.name.empty() && info.publish) j["markers"][std::to_string(id)] = info.name;  // unpublished: never shown
   return j.dump();
 }
 
