@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cstring>
 #include <mutex>
+#include <system_error>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -165,14 +167,30 @@ struct WebServer::Impl {
 };
 
 namespace {
-int handle_request(mg_connection* conn, void* data) {
-  auto* impl = static_cast<WebServer::Impl*>(data);
+int handle_on_this_thread(mg_connection* conn, WebServer::Impl* impl) {
   try {
     return impl->handle(conn);
   } catch (const std::exception& e) {
     spdlog::warn("web: {}", e.what());
     return send(conn, 500, "text/plain", std::string("internal error: ") + e.what() + "\n");
   }
+}
+
+// CivetWeb's request threads get the stack size fixed when the library was built (Debian's:
+// 100 KiB), too small for OpenCV's encoder and ArUco search in the camera view, and overflowed
+// under the sanitizers even by plain pages. So each request is handled on a thread with the
+// default stack while CivetWeb's thread waits; a stream's thread lives as long as the stream.
+int handle_request(mg_connection* conn, void* data) {
+  auto* impl = static_cast<WebServer::Impl*>(data);
+  int status = 0;
+  try {
+    std::thread worker([&] { status = handle_on_this_thread(conn, impl); });
+    worker.join();
+  } catch (const std::system_error& e) {  // no thread: answer on this one, briefly
+    spdlog::warn("web: cannot start a request thread: {}", e.what());
+    return send(conn, 503, "text/plain", "busy\n");
+  }
+  return status;
 }
 
 int log_message(const mg_connection* conn, const char* message) {
