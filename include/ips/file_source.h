@@ -46,9 +46,12 @@ class FileSource : public FrameSource {
   ReadStatus read(Frame& out, std::chrono::milliseconds timeout) override;
   void close() noexcept override;
   std::string describe() const override;
+  /// Preloaded JPEG files are then handed over undecoded (Frame::jpeg); other formats and
+  /// videos are still decoded. True when preload is on.
+  bool defer_decode(bool on) override;
 
  private:
-  bool read_image(cv::Mat& gray, bool& corrupt);
+  bool read_image(Frame& out, bool& corrupt);
 
   FileSourceOptions options_;
   bool open_ = false;
@@ -61,6 +64,7 @@ class FileSource : public FrameSource {
   cv::Mat decoded_;
   std::uint64_t sequence_ = 0;
   std::int64_t next_due_ns_ = 0;  // CLOCK_MONOTONIC
+  bool defer_decode_ = false;
 };
 
 }  // namespace ips

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -19,6 +20,10 @@ struct Frame {
   /// synthetic camera: capture time + transport delay); 0 = the reader stamps it on return.
   std::int64_t t_delivered_ns = 0;
   cv::Mat gray;                ///< CV_8UC1; detection needs nothing else
+  /// Deferred decoding (#12, FrameSource::defer_decode): when non-empty, this frame's image is
+  /// this JPEG and `gray` is NOT it (only a buffer the reader may decode into, e.g. just the
+  /// regions its tracker needs: ips::TrackedFrameDetector). Empty: `gray` is the image.
+  std::vector<std::uint8_t> jpeg;
 };
 
 /// A source of frames. One instance is used by one thread.
@@ -39,6 +44,14 @@ class FrameSource {
   virtual void close() noexcept = 0;
   /// Human-readable name for logs, e.g. "v4l2:/dev/v4l/by-id/usb-ELP...".
   virtual std::string describe() const = 0;
+  /// Asks the source to hand JPEG frames over undecoded in Frame::jpeg (the reader decodes
+  /// what it needs; a corrupt JPEG then shows when the reader decodes it, not as kCorrupt).
+  /// Returns whether it will: sources without JPEG frames (or that must decode at reduced
+  /// scale) keep filling `gray`. Call before open() or between reads.
+  virtual bool defer_decode(bool on) {
+    (void)on;
+    return false;
+  }
 };
 
 }  // namespace ips

@@ -30,6 +30,9 @@ class JpegRegionDecoder {
   /// why).
   bool decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray, const std::vector<cv::Rect>& rois);
 
+  /// Reads only the header: the image size. Returns false if it is not a JPEG (error()).
+  bool read_size(std::span<const std::uint8_t> jpeg, cv::Size& size);
+
   const std::string& error() const { return error_; }
 
  private:

@@ -47,6 +47,12 @@ class SourceSupervisor {
   /// failures and never returns kEnd: an ended source is reopened like a failed one.
   FrameSource::ReadStatus read(Frame& out, std::chrono::milliseconds timeout);
 
+  /// Asks every source it opens from now on to hand JPEG frames over undecoded
+  /// (FrameSource::defer_decode; the camera thread decodes only what its tracker needs).
+  /// read() clears Frame::jpeg first, so a frame from a source that decodes never carries a
+  /// stale JPEG.
+  void set_defer_decode(bool on);
+
   State state() const { return state_; }
   const std::string& last_error() const { return last_error_; }
   std::string describe() const { return description_; }
@@ -71,6 +77,7 @@ class SourceSupervisor {
   bool delivered_since_open_ = false;
   std::uint64_t failures_ = 0;
   std::uint64_t opens_ = 0;
+  bool defer_decode_ = false;
 };
 
 }  // namespace ips

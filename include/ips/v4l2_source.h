@@ -99,6 +99,9 @@ class V4L2Source : public FrameSource {
   /// Stops streaming, unmaps every buffer and closes the fd. Safe to call repeatedly.
   void close() noexcept override;
   std::string describe() const override;
+  /// MJPEG frames at decode_scale 1 are then copied out of the driver's buffer undecoded
+  /// (Frame::jpeg); YUYV and reduced-scale decoding are unaffected. True for decode_scale 1.
+  bool defer_decode(bool on) override;
 
   bool is_open() const { return fd_ >= 0; }
   const V4L2Granted& granted() const { return granted_; }
@@ -116,7 +119,7 @@ class V4L2Source : public FrameSource {
   void negotiate_rate();
   void apply_controls();
   void start_streaming();
-  bool convert(const Mapping& buffer, std::uint32_t bytesused, cv::Mat& gray);
+  bool convert(const Mapping& buffer, std::uint32_t bytesused, Frame& out);
   std::int64_t realtime_offset_ns(std::int64_t t_mono_ns);
 
   V4L2Options options_;
@@ -129,6 +132,7 @@ class V4L2Source : public FrameSource {
   JpegDecoder decoder_;
   std::optional<std::uint32_t> last_sequence_;
   bool warned_timestamp_ = false;
+  bool defer_decode_ = false;
   std::int64_t offset_ns_ = 0;                          // realtime - monotonic
   std::optional<std::int64_t> offset_sampled_mono_ns_;  // when offset_ns_ was sampled
 };

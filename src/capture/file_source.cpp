@@ -88,7 +88,13 @@ void FileSource::close() noexcept {
   if (video_.isOpened()) video_.release();
 }
 
-bool FileSource::read_image(cv::Mat& gray, bool& corrupt) {
+bool FileSource::defer_decode(bool on) {
+  defer_decode_ = on && options_.preload;
+  return defer_decode_;
+}
+
+bool FileSource::read_image(Frame& out, bool& corrupt) {
+  cv::Mat& gray = out.gray;
   corrupt = false;
   if (is_directory_) {
     if (next_file_ == files_.size()) {
@@ -100,6 +106,10 @@ bool FileSource::read_image(cv::Mat& gray, bool& corrupt) {
     if (options_.preload) {
       const auto& bytes = preloaded_[index];
       const bool jpeg = bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8;
+      if (jpeg && defer_decode_) {
+        out.jpeg.assign(bytes.begin(), bytes.end());  // a camera's MJPEG frame, as copied out of its buffer
+        return true;
+      }
       if (jpeg) {
         if (jpeg_->decode_gray(bytes, gray)) return true;
         spdlog::warn("{}: cannot decode {}: {}; skipped", describe(), file, jpeg_->error());
@@ -142,8 +152,9 @@ FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds t
     next_due_ns_ = std::max(next_due_ns_ + period, monotonic_ns());
   }
   if (out.gray.u != nullptr && out.gray.u->refcount > 1) out.gray.release();
+  out.jpeg.clear();
   bool corrupt = false;
-  if (!read_image(out.gray, corrupt)) return ReadStatus::kEnd;
+  if (!read_image(out, corrupt)) return ReadStatus::kEnd;
   if (corrupt) return ReadStatus::kCorrupt;
   out.sequence = sequence_++;
   out.t_mono_ns = monotonic_ns();

@@ -55,6 +55,24 @@ JpegRegionDecoder::~JpegRegionDecoder() {
   delete impl_;
 }
 
+bool JpegRegionDecoder::read_size(std::span<const std::uint8_t> jpeg, cv::Size& size) {
+  jpeg_decompress_struct& c = impl_->cinfo;
+  if (jpeg.size() < 4) {
+    error_ = "too short to be a JPEG";
+    return false;
+  }
+  if (setjmp(impl_->err.jump) != 0) {
+    error_ = impl_->err.message;
+    jpeg_abort_decompress(&c);
+    return false;
+  }
+  jpeg_mem_src(&c, jpeg.data(), static_cast<unsigned long>(jpeg.size()));
+  jpeg_read_header(&c, TRUE);
+  size = cv::Size(static_cast<int>(c.image_width), static_cast<int>(c.image_height));
+  jpeg_abort_decompress(&c);
+  return true;
+}
+
 bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray,
                                const std::vector<cv::Rect>& rois) {
   jpeg_decompress_struct& c = impl_->cinfo;

@@ -47,6 +47,7 @@ bool SourceSupervisor::open() {
   try {
     source_ = factory_();
     description_ = source_->describe();
+    if (defer_decode_) source_->defer_decode(true);
     source_->open();
   } catch (const std::exception& e) {
     fail(std::string("cannot open ") + (description_.empty() ? "source" : description_) + ": " + e.what());
@@ -65,7 +66,13 @@ bool SourceSupervisor::open() {
   return true;
 }
 
+void SourceSupervisor::set_defer_decode(bool on) {
+  defer_decode_ = on;
+  if (source_) source_->defer_decode(on);
+}
+
 FrameSource::ReadStatus SourceSupervisor::read(Frame& out, std::chrono::milliseconds timeout) {
+  out.jpeg.clear();  // only a deferring source fills it (keeps its capacity)
   if (state_ != State::kOpen) {
     const std::int64_t now = clock_.now();
     if (state_ == State::kBackoff && now < retry_at_ns_) {

@@ -23,7 +23,11 @@ constexpr int kMaxSkip = 8;
 
 CameraWorker::CameraWorker(const ips::CameraConfig& config, ips::SourceFactory factory, RuntimeHolder& runtime,
                            ObservationQueue& queue, CameraStats& stats)
-    : config_(config), supervisor_(config.name, std::move(factory)), runtime_(runtime), queue_(queue), stats_(stats) {}
+    : config_(config), supervisor_(config.name, std::move(factory)), runtime_(runtime), queue_(queue), stats_(stats) {
+  // MJPEG frames arrive undecoded: process() decodes only the regions the tracker searches
+  // (and a frame skipped to stay on the newest one is never decoded at all).
+  supervisor_.set_defer_decode(true);
+}
 
 CameraWorker::~CameraWorker() {
   request_stop();
@@ -63,7 +67,7 @@ void CameraWorker::run() {
       reported_failures = supervisor_.failures();
       stats_.failures = reported_failures;
       have_sequence = false;  // a reopened source restarts its counter
-      if (tracker_) tracker_->reset();  // and may show anything: search in full
+      if (detector_) detector_->reset();  // and may show anything: search in full
       std::lock_guard lock(stats_.error_mutex);
       stats_.last_error = supervisor_.last_error();
     }
@@ -101,18 +105,20 @@ void CameraWorker::run() {
 void CameraWorker::process(ips::Frame& frame) {
   const std::shared_ptr<const Runtime> rt = runtime_.get();
   const int index = config_.index;
-  if (!detector_ || detector_->options() != rt->config.detection) {  // first frame, or a reload changed it
-    detector_ = std::make_unique<ips::Detector>(rt->config.detection);
-    tracker_.reset();
-  }
-  if (!tracker_ || tracker_->options() != rt->config.tracking) {
-    // The camera index as phase: the cameras' full-frame searches fall on different frames.
-    tracker_ = std::make_unique<ips::DetectionTracker>(rt->config.tracking, index);
-  }
+  // First frame, or a reload changed detection or tracking. The camera index as the tracker's
+  // phase: the cameras' full-frame searches fall on different frames.
+  if (!detector_ || detector_->detection() != rt->config.detection || detector_->tracking() != rt->config.tracking)
+    detector_ = std::make_unique<ips::TrackedFrameDetector>(rt->config.detection, rt->config.tracking, index);
   const ips::CameraModel& intrinsics = rt->intrinsics[static_cast<std::size_t>(index)];
   const std::int64_t t0 = ips::monotonic_ns();
-  const auto detections = tracker_->track(*detector_, frame.gray, &intrinsics);
-  if (tap_ && tap_->wanted()) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
+  // The web view's camera image needs the whole frame: decoded whole only while a page asks.
+  const bool watched = tap_ && tap_->wanted();
+  std::vector<ips::MarkerDetection> detections;
+  if (!detector_->detect(frame, &intrinsics, watched, detections)) {
+    if (stats_.corrupt++ == 0) spdlog::warn("{}: {}; such frames are skipped and counted", config_.name, detector_->error());
+    return;
+  }
+  if (watched) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
   ips::FrameObservations batch;
   batch.camera_index = index;
   // cameras[].timestamp_offset: the source's stamp -> mid exposure (README "Time").

@@ -9,7 +9,7 @@
 #include "ips/detector.h"
 #include "ips/source_supervisor.h"
 #include "ips/web.h"
-#include "ips/tracker.h"
+#include "ips/tracked_frame_detector.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -39,9 +39,10 @@ class CameraWorker {
   RuntimeHolder& runtime_;
   ObservationQueue& queue_;
   CameraStats& stats_;
-  std::unique_ptr<ips::Detector> detector_;  // used by the camera thread only
   std::shared_ptr<ips::FrameTap> tap_;  // web view: a frame is copied only when a page asked
-  std::unique_ptr<ips::DetectionTracker> tracker_;  // rebuilt like detector_; detection.tracking
+  // Decode (only what tracking needs: the source hands JPEG frames over undecoded) + detect;
+  // used by the camera thread only, rebuilt when a reload changes detection or tracking.
+  std::unique_ptr<ips::TrackedFrameDetector> detector_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

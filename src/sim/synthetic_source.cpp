@@ -130,12 +130,21 @@ FrameSource::ReadStatus SyntheticSource::read_ahead(Frame& out, std::chrono::mil
   ++delivered_;
   if (!r.jpeg.empty()) {
     jpeg_ = std::move(r.jpeg);
+    if (defer_decode_) {
+      out.jpeg = jpeg_;
+      return ReadStatus::kFrame;
+    }
     if (!decoder_.decode_gray(jpeg_, out.gray)) return ReadStatus::kCorrupt;
   } else {
     jpeg_.clear();
     out.gray = r.gray;
   }
   return ReadStatus::kFrame;
+}
+
+bool SyntheticSource::defer_decode(bool on) {
+  defer_decode_ = on && scene_->render.jpeg_quality > 0;
+  return defer_decode_;
 }
 
 std::string SyntheticSource::describe() const {
@@ -177,7 +186,9 @@ FrameSource::ReadStatus SyntheticSource::read(Frame& out, std::chrono::milliseco
   renderer_.render(scene_time(out.t_mono_ns), quality > 0 ? rendered_ : out.gray, k);
   if (quality > 0) {
     jpeg_ = encode_jpeg(rendered_, quality, options_.colour_jpeg);
-    if (!decoder_.decode_gray(jpeg_, out.gray)) {
+    if (defer_decode_) {
+      out.jpeg = jpeg_;
+    } else if (!decoder_.decode_gray(jpeg_, out.gray)) {
       return ReadStatus::kCorrupt;  // cannot happen for our own encoder; kept honest
     }
   } else {

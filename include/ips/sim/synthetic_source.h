@@ -69,6 +69,9 @@ class SyntheticSource : public FrameSource {
   ReadStatus read(Frame& out, std::chrono::milliseconds timeout) override;
   void close() noexcept override;
   std::string describe() const override;
+  /// JPEG frames (jpeg_quality > 0) are then handed over undecoded (Frame::jpeg, #12), as a
+  /// real MJPEG camera's. True when the scene encodes JPEG.
+  bool defer_decode(bool on) override;
 
   /// Scene time (seconds) of a capture time stamped by this source.
   double scene_time(std::int64_t t_mono_ns) const {
@@ -111,6 +114,7 @@ class SyntheticSource : public FrameSource {
   cv::Mat rendered_;
   std::vector<std::uint8_t> jpeg_;
   bool open_ = false;
+  bool defer_decode_ = false;
   std::int64_t epoch_mono_ns_ = 0;
   std::int64_t real_minus_mono_ns_ = 0;
   std::uint64_t next_ = 0;  ///< index of the next frame
