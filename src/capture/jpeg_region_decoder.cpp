@@ -129,9 +129,14 @@ bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray
   for (const auto& [first, last] : bands) {
     if (static_cast<int>(c.output_scanline) < first)
       jpeg_skip_scanlines(&c, static_cast<JDIMENSION>(first) - c.output_scanline);
+    // Up to an MCU row's worth of rows per call: libjpeg then hands over what one iMCU row
+    // decodes in one go instead of a call per row.
+    JSAMPROW rows[16];
     while (static_cast<int>(c.output_scanline) < last) {
-      JSAMPROW row = gray.ptr<JSAMPLE>(static_cast<int>(c.output_scanline)) + xoff;
-      jpeg_read_scanlines(&c, &row, 1);
+      const int first_row = static_cast<int>(c.output_scanline);
+      const int n = std::min(16, last - first_row);
+      for (int i = 0; i < n; ++i) rows[i] = gray.ptr<JSAMPLE>(first_row + i) + xoff;
+      jpeg_read_scanlines(&c, rows, static_cast<JDIMENSION>(n));
     }
   }
   // Rows below the last band are never entropy-decoded.
