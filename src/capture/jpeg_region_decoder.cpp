@@ -134,9 +134,9 @@ bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray
     JSAMPROW rows[16];
     while (static_cast<int>(c.output_scanline) < last) {
       const int first_row = static_cast<int>(c.output_scanline);
-      const int n = std::min(16, last - first_row);
-      for (int i = 0; i < n; ++i) rows[i] = gray.ptr<JSAMPLE>(first_row + i) + xoff;
-      jpeg_read_scanlines(&c, rows, static_cast<JDIMENSION>(n));
+      const int count = std::min(16, last - first_row);
+      for (int i = 0; i < count; ++i) rows[i] = gray.ptr<JSAMPLE>(first_row + i) + xoff;
+      jpeg_read_scanlines(&c, rows, static_cast<JDIMENSION>(count));
     }
   }
   // Rows below the last band are never entropy-decoded.
