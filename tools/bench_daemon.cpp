@@ -293,8 +293,8 @@ int main(int argc, char** argv) {
               percentile(to_send, 50) - delay_ms, percentile(to_send, 99) - delay_ms, percentile(to_send, 100) - delay_ms,
               delay_ms);
   std::printf("%-12s %8s %8s %10s %8s %8s\n", "thread", "CPU %", "fps", "detect ms", "markers", "drops");
-  long total = 0, simulator = 0;
-  double fps_sum = 0;
+  long total = 0, simulator = 0, camera_ticks = 0;
+  double fps_sum = 0, camera_frames = 0;
   int fps_n = 0;
   for (const auto& [name, t1] : cpu1) {
     const long used = t1 - (cpu0.count(name) ? cpu0.at(name) : 0);
@@ -314,6 +314,8 @@ int main(int argc, char** argv) {
         const double per_frame = frames ? 1.0 / static_cast<double>(frames) : 0.0;
         fps_sum += static_cast<double>(frames) / wall;
         ++fps_n;
+        camera_ticks += used;
+        camera_frames += static_cast<double>(frames);
         std::printf("%-12s %8.1f %8.1f %10.1f %8.2f %8llu\n", name.c_str(), pct, static_cast<double>(frames) / wall,
                     1e3 * detect_s * per_frame, static_cast<double>(found) * per_frame,
                     static_cast<unsigned long long>(drops));
@@ -335,6 +337,13 @@ int main(int argc, char** argv) {
   if (fps_n > 0)
     std::printf("%-12s %8.1f   (mean camera fps vs %.0f: frames short %.2f %%)\n", "fps", fps_sum / fps_n, fps,
                 100.0 * std::max(0.0, 1.0 - fps_sum / fps_n / fps));
+  // CPU per processed frame of the camera threads: what a camera costs, much less sensitive to
+  // other processes' load than the totals above (which drop when the daemon gets less CPU).
+  if (camera_frames > 0) {
+    const double ms_per_frame = 1e3 * static_cast<double>(camera_ticks) / static_cast<double>(ticks) / camera_frames;
+    std::printf("%-12s %8.2f   (camera threads' CPU ms per frame; x %d cameras x %.0f fps = %.1f %% of one core)\n",
+                "per frame", ms_per_frame, n_cameras, fps, ms_per_frame * n_cameras * fps / 10.0);
+  }
   fs::remove_all(dir);
   return 0;
 }
