@@ -78,6 +78,10 @@ struct FusedBody {
 struct BodyEstimatorOptions {
   double face_tolerance = 0.4363;  ///< radians (25 deg) a face normal may be off its class
   double ambiguity_ratio = 2.0;    ///< IPPE: the second solution counts while its error < ratio x best
+  /// Two poses that fit different faces: a face wins when its known heights make the corners a
+  /// square this many times better than the other's.
+  double shape_ratio = 0.5;
+  double shape_tolerance = 0.15;  ///< the chosen face's corners: RMS off the square < this x edge
   double yaw_memory_s = 1.0;       ///< a body's last yaw tells its cube sides apart this long
   double baseline_min = 0.10;      ///< markers this far apart (m) give the yaw by their baseline
 };

@@ -99,27 +99,8 @@ bool BodyEstimator::observe(const CameraObservation& obs, const Mapper& mapper, 
       if (face_class(body.markers[static_cast<std::size_t>(k)].axes.col(2), tol) == c) return true;
     return false;
   };
-  const FaceClass c0 = class_of(sols[0]);
-  FaceClass chosen = c0;
-  const bool close = sols.size() > 1 && sols[1].error < options_.ambiguity_ratio * sols[0].error;
-  if (close) {
-    const FaceClass c1 = class_of(sols[1]);
-    const bool v0 = c0 != FaceClass::kOther && has_class(c0), v1 = c1 != FaceClass::kOther && has_class(c1);
-    if (v0 && v1 && c0 != c1) return reject("ambiguous view (two poses fit different faces)");
-    if (!v0 && !v1) return reject("orientation fits no face of the body");
-    chosen = v0 ? c0 : c1;
-  } else if (c0 == FaceClass::kOther || !has_class(c0)) {
-    return reject("orientation fits no face of the body");
-  }
-  const MarkerPoseSolution& used = (close && chosen != c0) ? sols[1] : sols[0];
-  out.face = chosen;
-  out.marker_normal = cam.R_wc * used.R.col(2);
-
-  for (int k : same_id) {
-    const BodyMarker& m = body.markers[static_cast<std::size_t>(k)];
-    if (face_class(m.axes.col(2), tol) != chosen) continue;
-    // Each corner's ray meets the horizontal plane at that corner's height on the body.
-    std::array<Eigen::Vector3d, 4> p;
+  // Each corner's ray meets the horizontal plane at that corner's height on face m.
+  auto corners_on = [&](const BodyMarker& m, std::array<Eigen::Vector3d, 4>& p) {
     bool ok = true;
     for (std::size_t i = 0; i < 4; ++i) {
       const Eigen::Vector3d on_body =
@@ -128,7 +109,62 @@ bool BodyEstimator::observe(const CameraObservation& obs, const Mapper& mapper, 
       ok = ok && s > 0 && std::isfinite(s);
       p[i] = cam.centre + s * ray[i];
     }
-    if (!ok) continue;
+    return ok;
+  };
+  // How far those four points are from a square of the marker's edge (RMS over the four sides
+  // and two diagonals, metres): the wrong face's heights bend them out of shape.
+  auto shape_error = [&](FaceClass c) {
+    for (int k : same_id) {
+      const BodyMarker& m = body.markers[static_cast<std::size_t>(k)];
+      if (face_class(m.axes.col(2), tol) != c) continue;
+      std::array<Eigen::Vector3d, 4> p;
+      if (!corners_on(m, p)) return 1e9;
+      double sum = 0;
+      for (std::size_t i = 0; i < 4; ++i) sum += std::pow((p[(i + 1) % 4] - p[i]).norm() - m.edge, 2);
+      sum += std::pow((p[2] - p[0]).norm() - m.edge * std::numbers::sqrt2, 2);
+      sum += std::pow((p[3] - p[1]).norm() - m.edge * std::numbers::sqrt2, 2);
+      return std::sqrt(sum / 6.0);
+    }
+    return 1e9;
+  };
+  const FaceClass c0 = class_of(sols[0]);
+  FaceClass chosen = c0;
+  const bool close = sols.size() > 1 && sols[1].error < options_.ambiguity_ratio * sols[0].error;
+  if (close) {
+    const FaceClass c1 = class_of(sols[1]);
+    const bool v0 = c0 != FaceClass::kOther && has_class(c0), v1 = c1 != FaceClass::kOther && has_class(c1);
+    if (v0 && v1 && c0 != c1) {
+      // Both poses fit the corners and each fits a face: the known heights of the two faces
+      // decide, when one of them makes a square and the other clearly does not.
+      const double e0 = shape_error(c0), e1 = shape_error(c1);
+      if (e0 < options_.shape_ratio * e1) {
+        chosen = c0;
+      } else if (e1 < options_.shape_ratio * e0) {
+        chosen = c1;
+      } else {
+        return reject("ambiguous view (two poses fit different faces)");
+      }
+    } else if (!v0 && !v1) {
+      return reject("orientation fits no face of the body");
+    } else {
+      chosen = v0 ? c0 : c1;
+    }
+  } else if (c0 == FaceClass::kOther || !has_class(c0)) {
+    return reject("orientation fits no face of the body");
+  }
+  const MarkerPoseSolution& used = (close && chosen != c0) ? sols[1] : sols[0];
+  out.face = chosen;
+  out.marker_normal = cam.R_wc * used.R.col(2);
+  // The chosen face's corners must make the marker's square (a marker of another size or a
+  // face the pose misjudged does not).
+  if (shape_error(chosen) > options_.shape_tolerance * body.markers[static_cast<std::size_t>(same_id.front())].edge)
+    return reject("corners do not fit the face at its height");
+
+  for (int k : same_id) {
+    const BodyMarker& m = body.markers[static_cast<std::size_t>(k)];
+    if (face_class(m.axes.col(2), tol) != chosen) continue;
+    std::array<Eigen::Vector3d, 4> p;
+    if (!corners_on(m, p)) continue;
     const Eigen::Vector3d centre = (p[0] + p[1] + p[2] + p[3]) / 4.0;
     // The marker axis that runs most horizontally on the body gives the heading.
     const bool use_x = m.axes.col(0).head<2>().norm() >= m.axes.col(1).head<2>().norm();

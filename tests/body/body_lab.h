@@ -4,6 +4,8 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <memory>
@@ -79,7 +81,11 @@ class BodyLab {
           if (m.id == d.id) edge = m.edge;
         const CameraObservation obs = locate_marker(d, r.camera().model, edge);
         BodyObservation bo;
-        if (estimator_->observe(obs, *mappers_[c], static_cast<int>(c), 0, 0, bo)) {
+        std::string why;
+        const bool ok = estimator_->observe(obs, *mappers_[c], static_cast<int>(c), 0, 0, bo, &why);
+        if (!ok && std::getenv("IPS_BODY_LOOP_DEBUG"))
+          std::printf("  t %.2f camera %zu id %d rejected: %s\n", t, c, d.id, why.c_str());
+        if (ok) {
           out.push_back(bo);
           if (seen) (*seen)[c].push_back(d.id);
         }
