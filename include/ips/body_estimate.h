@@ -83,6 +83,7 @@ struct BodyEstimatorOptions {
   double shape_ratio = 0.5;
   double shape_tolerance = 0.15;  ///< the chosen face's corners: RMS off the square < this x edge
   double yaw_memory_s = 1.0;       ///< a body's last yaw tells its cube sides apart this long
+  double side_tolerance = 0.5236;  ///< radians (30 deg): a side's yaw must lie this near the reference
   double baseline_min = 0.10;      ///< markers this far apart (m) give the yaw by their baseline
 };
 

@@ -72,8 +72,12 @@ std::vector<FusedBody> BodyEstimator::fuse(std::span<const BodyObservation> obse
         std::size_t best = 0;
         for (std::size_t k = 1; k < o->yaws.size(); ++k)
           if (std::abs(wrap(o->yaws[k] - ref)) < std::abs(wrap(o->yaws[best] - ref))) best = k;
-        res.push_back({o, o->faces[best], static_cast<int>(best)});
-        continue;
+        // Within the tolerance of the reference: that face. Farther (the robot turned more
+        // since its yaw was last known): the face stays unknown, the view gives position only.
+        if (std::abs(wrap(o->yaws[best] - ref)) <= options_.side_tolerance) {
+          res.push_back({o, o->faces[best], static_cast<int>(best)});
+          continue;
+        }
       }
       // No yaw to tell the faces apart: usable for position if every candidate agrees (a cube).
       bool agree = true;

@@ -126,7 +126,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
                            const std::filesystem::path& scene_dir, const MarkerPose& start) {
   r.only_keys(n, path,
               {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading",
-               "control", "pause"});
+               "control", "pause", "start_deg"});
   Trajectory t;
   const std::string type = r.text(n, path, "type", "");
   if (type == "placements") {
@@ -144,6 +144,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
     t.kind = Trajectory::Kind::kCircle;
     t.center = vec2(r.numbers(n, path, "center", 2, 2));
     t.radius = r.number(n, path, "radius", 0.0, true);
+    t.start_angle = r.number(n, path, "start_deg", 0.0) * kDeg;
     if (!(t.radius > 0)) r.fail(n["radius"], path + "radius", "must be > 0");
     if (n["clockwise"]) {
       try {
@@ -239,7 +240,7 @@ MarkerPose pose_on_trajectory(const MarkerPose& start, const Trajectory& tr, dou
       return pose;
     case Trajectory::Kind::kCircle: {
       const double sign = tr.clockwise ? -1.0 : 1.0;
-      const double a = sign * s / tr.radius;
+      const double a = tr.start_angle + sign * s / tr.radius;
       pos = tr.center + tr.radius * Eigen::Vector2d(std::cos(a), std::sin(a));
       dir = sign * Eigen::Vector2d(-std::sin(a), std::cos(a));
       break;

@@ -41,6 +41,7 @@ struct Trajectory {
   Eigen::Vector2d center{0, 0};  ///< circle centre, metres
   double radius = 0.0;           ///< circle radius, metres
   bool clockwise = false;        ///< circle direction seen from above
+  double start_angle = 0.0;      ///< circle: where on it at t = 0, radians from +x (centre + radius (cos, sin))
   std::vector<Eigen::Vector2d>
       points;                        ///< line: {from, to} (back and forth); waypoints: closed loop
   bool heading_follows_path = true;  ///< yaw = direction of travel (+ yaw offset) else fixed yaw
