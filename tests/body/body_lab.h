@@ -67,6 +67,7 @@ class BodyLab {
   /// the ids it detected go to `seen[camera]`.
   std::vector<BodyObservation> observe(double t, std::uint64_t k, std::vector<std::vector<int>>* seen = nullptr) {
     std::vector<BodyObservation> out;
+    const auto t_ns = static_cast<std::int64_t>(std::llround(t * 1e9));  // the estimator's yaw memory runs on it
     if (seen) seen->assign(renderers_.size(), {});
     for (std::size_t c = 0; c < renderers_.size(); ++c) {
       const sim::CameraRenderer& r = *renderers_[c];
@@ -82,7 +83,7 @@ class BodyLab {
         const CameraObservation obs = locate_marker(d, r.camera().model, edge);
         BodyObservation bo;
         std::string why;
-        const bool ok = estimator_->observe(obs, *mappers_[c], static_cast<int>(c), 0, 0, bo, &why);
+        const bool ok = estimator_->observe(obs, *mappers_[c], static_cast<int>(c), t_ns, t_ns, bo, &why);
         if (!ok && std::getenv("IPS_BODY_LOOP_DEBUG"))
           std::printf("  t %.2f camera %zu id %d rejected: %s\n", t, c, d.id, why.c_str());
         if (ok) {
