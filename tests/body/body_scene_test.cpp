@@ -185,3 +185,55 @@ TEST(BodyScene, BadBodiesInASceneNameTheKey) {
 }
 
 }  // namespace
+
+namespace {
+
+// A cube's side alone cannot tell which of four faces it is: position only, until the body's
+// yaw is known (from its top at the same instant, or from the last second).
+TEST(BodyEstimate, CubeSidesNeedAYawToTellTheirFace) {
+  BodyLab lab(kBodies, temp_dir("sides"));
+  std::vector<ips::BodyObservation> sides, tops;
+  for (std::size_t c = 0; c < 3; ++c) {
+    const auto truth = lab.renderer(c).truth(0.0);
+    for (std::size_t i = 0; i < 5; ++i) {  // the cube's faces
+      if (!truth[i].visible) continue;
+      ips::MarkerDetection d;
+      d.id = truth[i].id;
+      d.corners_px = truth[i].corners_px;
+      ips::BodyObservation bo;
+      if (!lab.estimator().observe(ips::locate_marker(d, lab.renderer(c).camera().model, 0.075), lab.mapper(c),
+                                   static_cast<int>(c), 0, 0, bo))
+        continue;
+      (bo.face == ips::FaceClass::kSide ? sides : tops).push_back(bo);
+    }
+  }
+  ASSERT_FALSE(sides.empty());
+  ASSERT_FALSE(tops.empty());
+  const auto& mean = ips::find_fusion_method("mean", "test");
+  const ips::BodyPose truth = lab.scene().body_pose_at(0, 0.0);
+  auto at = [](std::vector<ips::BodyObservation> v, std::int64_t t) {
+    for (auto& o : v) o.t_mono_ns = t;
+    return v;
+  };
+  // Sides only, nothing known: the position (the cube's centre is half a side behind any side).
+  auto f = lab.estimator().fuse(at(sides, 0), mean);
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_FALSE(f[0].has_yaw);
+  EXPECT_LT((f[0].pose.position - truth.position).norm(), 0.001);
+  // The top at the same instant: the sides join with their face told.
+  std::vector<ips::BodyObservation> both = at(sides, 100'000'000);
+  for (const auto& o : at(tops, 100'000'000)) both.push_back(o);
+  f = lab.estimator().fuse(both, mean);
+  ASSERT_TRUE(f[0].has_yaw);
+  EXPECT_LT(std::abs(ips::test::wrap_angle(f[0].pose.yaw - truth.yaw)), 0.2 * kDeg);
+  EXPECT_EQ(f[0].observations, static_cast<int>(both.size()));
+  // Half a second later, sides only: the remembered yaw tells the face.
+  f = lab.estimator().fuse(at(sides, 600'000'000), mean);
+  ASSERT_TRUE(f[0].has_yaw);
+  EXPECT_LT(std::abs(ips::test::wrap_angle(f[0].pose.yaw - truth.yaw)), 0.2 * kDeg);
+  // Two seconds after the last yaw: forgotten, position only again.
+  f = lab.estimator().fuse(at(sides, 2'700'000'000), mean);
+  EXPECT_FALSE(f[0].has_yaw);
+}
+
+}  // namespace
