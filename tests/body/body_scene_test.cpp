@@ -18,9 +18,19 @@ using ips::test::BodyLab;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
+// Scratch folders of this process, removed when it exits.
+struct Scratch {
+  std::vector<std::filesystem::path> dirs;
+  ~Scratch() {
+    std::error_code ec;
+    for (const auto& d : dirs) std::filesystem::remove_all(d, ec);
+  }
+} scratch;
+
 std::string temp_dir(const std::string& name) {
   const auto d = std::filesystem::temp_directory_path() / ("ips_body_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::create_directories(d);
+  scratch.dirs.push_back(d);
   return d.string();
 }
 
