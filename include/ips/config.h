@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "ips/body.h"
 #include "ips/detector.h"
 #include "ips/kalman.h"
 #include "ips/marker_geometry.h"
@@ -207,6 +208,8 @@ struct DaemonConfig {
   std::filesystem::path file;  ///< where it was loaded from (for messages)
   std::vector<CameraConfig> cameras;
   MarkerConfig markers;
+  /// bodies: rigid bodies made of markers (ips/body.h; README section "bodies").
+  std::vector<BodyDef> bodies;
   /// detection: the detector's tuning; `dictionary` is copied from markers.dictionary.
   DetectorOptions detection;
   /// detection.tracking / full_search_period / roi_margin: tracking between frames (#12).

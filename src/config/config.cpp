@@ -322,6 +322,7 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
     r.fail(root["markers"]["dictionary"], "markers.dictionary", e.what());
   }
   c.detection.dictionary = c.markers.dictionary;
+  if (r.has("bodies")) c.bodies = config_detail::parse_bodies(r.node("bodies"), c.markers, file);
   r.get_path("model_file", c.model_file, base, true, checks.model_file_exists);
 
   if (r.has("fusion")) {

@@ -132,6 +132,8 @@ inline Enum pick(MapReader& r, const std::string& k, const std::vector<std::pair
   r.fail(r.raw()[k], r.key(k), "unknown value '" + s + "' (" + names + ")");
 }
 
+/// bodies: the list of rigid bodies, checked against markers (src/config/parse_bodies.cpp).
+std::vector<BodyDef> parse_bodies(const YAML::Node& n, const MarkerConfig& markers, const std::string& file);
 /// outputs[index]: one output of any type (src/config/parse_output.cpp).
 OutputConfig parse_output(const YAML::Node& n, int index, const std::string& file);
 /// The type-specific keys of a mavlink output (src/config/parse_output_mavlink.cpp).

@@ -122,6 +122,19 @@ int run_render(const RenderArgs& a) {
         markers[i]["cameras"][name] = truth_json(truth[i]);
     }
     frame["markers"] = markers;
+    // Bodies (README "bodies"): each body's exact pose; its markers are in "markers" with "body".
+    if (!scene.bodies.empty()) {
+      nlohmann::json bodies = nlohmann::json::array();
+      for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
+        const ips::BodyPose bp = scene.body_pose_at(b, t);
+        bodies.push_back({{"name", scene.bodies[b].def.name},
+                          {"x", bp.position.x()}, {"y", bp.position.y()}, {"z", bp.position.z()}, {"yaw", bp.yaw},
+                          {"q", {bp.q.w(), bp.q.x(), bp.q.y(), bp.q.z()}}});
+      }
+      for (std::size_t i = 0; i < scene.markers.size(); ++i)
+        if (scene.markers[i].body >= 0) frame["markers"][i]["body"] = scene.bodies[static_cast<std::size_t>(scene.markers[i].body)].def.name;
+      frame["bodies"] = bodies;
+    }
     ips::cli::write_file_atomically(fs::path(a.out) / (std::string("truth_") + stem + ".json"),
                                     frame.dump() + "\n");
   }

@@ -30,9 +30,16 @@ enum Region { kOffPlate = 0, kMargin = 1, kBlack = 2, kWhite = 3 };
 // Corners of the black square in marker units (x right, y up as printed), ArUco order.
 constexpr double kCorners[4][2] = {{-0.5, 0.5}, {0.5, 0.5}, {0.5, -0.5}, {-0.5, -0.5}};
 
+// The point (a, b) marker units from the centre along the marker's x, y axes (any orientation).
 Eigen::Vector3d marker_point(const MarkerPose& p, double length, double a, double b) {
-  const double c = std::cos(p.yaw), s = std::sin(p.yaw);
-  return {p.x + length * (c * a - s * b), p.y + length * (s * a + c * b), p.z};
+  const Eigen::Matrix3d f = p.frame();
+  return Eigen::Vector3d(p.x, p.y, p.z) + length * (a * f.col(0) + b * f.col(1));
+}
+
+// True when the camera sees the printed side of the marker (a body's face turned away is
+// hidden behind the body).
+bool faces_camera(const MarkerPose& p, const SceneCamera& cam) {
+  return p.frame().col(2).dot(cam.position - Eigen::Vector3d(p.x, p.y, p.z)) > 0;
 }
 
 // Smooth value noise on the floor: a coarse random grid, bilinearly interpolated.
@@ -193,7 +200,7 @@ MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose
   t.formula.id = marker.id;
   t.formula.edge_length = marker.length;
   if (!pose.present) return t;  // picked up: not visible anywhere
-  bool visible = true;
+  bool visible = faces_camera(pose, cam);
   for (std::size_t i = 0; i < 4; ++i) {
     const Eigen::Vector3d pc =
         cam.world_to_camera(marker_point(pose, marker.length, kCorners[i][0], kCorners[i][1]));
@@ -234,7 +241,7 @@ void CameraRenderer::render(double t, cv::Mat& gray, std::uint64_t noise_index) 
       p.poses.push_back(scene_.marker_pose_at(i, t));
     }
     // A marker picked up during the exposure is drawn only for the time it was there.
-    std::erase_if(p.poses, [](const MarkerPose& pose) { return !pose.present; });
+    std::erase_if(p.poses, [&](const MarkerPose& pose) { return !pose.present || !faces_camera(pose, camera()); });
     if (p.poses.empty()) continue;
     placed.push_back(std::move(p));
   }
@@ -312,21 +319,24 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
   cv::Mat region(bh, bw, CV_8S);
   const Eigen::Matrix3d R = cam.R_wc;
   for (const MarkerPose& pose : pm.poses) {
-    const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
+    // The ray of each pixel meets the marker's plane (normal n through its centre) at t; the
+    // hit's coordinates along the marker axes are (a, b) in marker units.
+    const Eigen::Matrix3d f = pose.frame();
+    const Eigen::Vector3d centre(pose.x, pose.y, pose.z);
+    const Eigen::Vector3d n = f.col(2);
+    const double plane = n.dot(centre - cam.position);
     for (int y = 0; y < bh; ++y) {
       const auto* uv = uv_->ptr<cv::Vec2f>(by0 + y) + bx0;
       auto* out = ab.ptr<cv::Vec2f>(y);
       for (int x = 0; x < bw; ++x) {
         const Eigen::Vector3d d = R * Eigen::Vector3d(uv[x][0], uv[x][1], 1.0);
-        const double t = (pose.z - cam.position.z()) / d.z();
+        const double t = plane / n.dot(d);
         if (!(t > 0)) {
           out[x] = {kNaNf, kNaNf};
           continue;
         }
-        const double qx = cam.position.x() + t * d.x() - pose.x;
-        const double qy = cam.position.y() + t * d.y() - pose.y;
-        out[x] = {static_cast<float>((c * qx + s * qy) / mk.length),
-                  static_cast<float>((-s * qx + c * qy) / mk.length)};
+        const Eigen::Vector3d q = cam.position + t * d - centre;
+        out[x] = {static_cast<float>(f.col(0).dot(q) / mk.length), static_cast<float>(f.col(1).dot(q) / mk.length)};
       }
     }
     // Region of every pixel centre: a cell of the pattern, the white margin, or off the plate.

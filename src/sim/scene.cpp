@@ -126,7 +126,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
                            const std::filesystem::path& scene_dir, const MarkerPose& start) {
   r.only_keys(n, path,
               {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading",
-               "control", "pause"});
+               "control", "pause", "start_deg"});
   Trajectory t;
   const std::string type = r.text(n, path, "type", "");
   if (type == "placements") {
@@ -144,6 +144,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
     t.kind = Trajectory::Kind::kCircle;
     t.center = vec2(r.numbers(n, path, "center", 2, 2));
     t.radius = r.number(n, path, "radius", 0.0, true);
+    t.start_angle = r.number(n, path, "start_deg", 0.0) * kDeg;
     if (!(t.radius > 0)) r.fail(n["radius"], path + "radius", "must be > 0");
     if (n["clockwise"]) {
       try {
@@ -227,6 +228,92 @@ long read_index(const std::filesystem::path& control) {
   return index;
 }
 
+
+// Pose at time t of something that starts at `start` and follows `tr` (markers and bodies).
+MarkerPose pose_on_trajectory(const MarkerPose& start, const Trajectory& tr, double t) {
+  MarkerPose pose = start;
+  Eigen::Vector2d pos(pose.x, pose.y);
+  Eigen::Vector2d dir(1, 0);
+  const double s = tr.speed * t;
+  switch (tr.kind) {
+    case Trajectory::Kind::kStatic:
+      return pose;
+    case Trajectory::Kind::kCircle: {
+      const double sign = tr.clockwise ? -1.0 : 1.0;
+      const double a = tr.start_angle + sign * s / tr.radius;
+      pos = tr.center + tr.radius * Eigen::Vector2d(std::cos(a), std::sin(a));
+      dir = sign * Eigen::Vector2d(-std::sin(a), std::cos(a));
+      break;
+    }
+    case Trajectory::Kind::kLine:
+      // Back and forth: the closed polyline from -> to -> from.
+      along_polyline(tr.points, s, pos, dir);
+      break;
+    case Trajectory::Kind::kWaypoints:
+      along_polyline(tr.points, tr.pause > 0 ? arc_with_pauses(tr.points, tr.speed, tr.pause, t) : s, pos, dir);
+      break;
+    case Trajectory::Kind::kPlacements: {
+      const long placed = read_index(tr.control);
+      if (placed < 0 || placed >= static_cast<long>(tr.placements.size())) {
+        pose.present = false;
+        return pose;
+      }
+      return tr.placements[static_cast<std::size_t>(placed)];
+    }
+  }
+  pose.x = pos.x();
+  pose.y = pos.y();
+  if (tr.heading_follows_path) pose.yaw = start.yaw + std::atan2(dir.y(), dir.x());
+  return pose;
+}
+
+// bodies: each a body definition (ips/body.h) plus its start pose (x, y, height of the origin,
+// yaw_deg, roll_deg, pitch_deg) and an optional trajectory; its markers join scene.markers.
+void read_bodies(const Reader& r, const YAML::Node& bs, const std::filesystem::path& scene_dir, int dictionary_size,
+                 Scene& scene) {
+  if (!bs.IsSequence()) r.fail(bs, "bodies", "expected a list");
+  const BodyFail fail = [&](const YAML::Node& at, const std::string& key, const std::string& what) {
+    r.fail(at, key, what);
+  };
+  std::vector<YAML::Node> nodes;
+  std::vector<BodyDef> defs;
+  for (std::size_t i = 0; i < bs.size(); ++i) {
+    const YAML::Node b = bs[i];
+    const std::string p = "bodies[" + std::to_string(i) + "]";
+    SceneBody body;
+    body.def = parse_body(b, p, {"x", "y", "height", "yaw_deg", "roll_deg", "pitch_deg", "trajectory"}, fail);
+    const std::string q = p + ".";
+    body.start.x = r.number(b, q, "x", 0, !b["trajectory"]);
+    body.start.y = r.number(b, q, "y", 0, !b["trajectory"]);
+    body.start.z = r.number(b, q, "height", 0.0);
+    body.start.yaw = r.number(b, q, "yaw_deg", 0.0) * kDeg;
+    body.roll = r.number(b, q, "roll_deg", 0.0) * kDeg;
+    body.pitch = r.number(b, q, "pitch_deg", 0.0) * kDeg;
+    if (b["trajectory"]) body.trajectory = read_trajectory(r, b["trajectory"], q + "trajectory.", scene_dir, body.start);
+    if (body.trajectory.kind == Trajectory::Kind::kPlacements)
+      r.fail(b["trajectory"], q + "trajectory.type", "placements are for single markers, not bodies");
+    for (const BodyMarker& bm : body.def.markers) {
+      if (bm.id >= dictionary_size)
+        r.fail(b, p, "marker id " + std::to_string(bm.id) + " is not in " + scene.dictionary);
+      for (const auto& plain : scene.markers) {
+        if (plain.body < 0 && plain.id == bm.id)
+          r.fail(b, p, "marker id " + std::to_string(bm.id) + " is also a plain marker of the scene");
+      }
+      SceneMarker mk;
+      mk.id = bm.id;
+      mk.length = bm.edge;
+      mk.margin = (bm.plate - bm.edge) / 2.0 > 0 ? (bm.plate - bm.edge) / 2.0 : -1.0;
+      mk.body = static_cast<int>(scene.bodies.size());
+      mk.on_body = bm;
+      scene.markers.push_back(mk);
+    }
+    nodes.push_back(b);
+    defs.push_back(body.def);
+    scene.bodies.push_back(std::move(body));
+  }
+  check_bodies(defs, nodes, "bodies", fail);
+}
+
 }  // namespace
 
 Eigen::Matrix3d Scene::orientation(double roll, double pitch, double yaw) {
@@ -250,7 +337,7 @@ Scene Scene::load(const std::filesystem::path& path) {
     throw InputError(file + ":" + std::to_string(e.mark.line + 1) + ": YAML error: " + e.msg);
   }
   const Reader r(file);
-  r.only_keys(root, "", {"dictionary", "floor", "render", "cameras", "markers"});
+  r.only_keys(root, "", {"dictionary", "floor", "render", "cameras", "markers", "bodies"});
   Scene scene;
   scene.dictionary = r.text(root, "", "dictionary", scene.dictionary);
   try {
@@ -380,46 +467,44 @@ Scene Scene::load(const std::filesystem::path& path) {
       scene.markers.push_back(mk);
     }
   }
+  if (const YAML::Node bs = root["bodies"]) read_bodies(r, bs, path.parent_path(), dictionary_size, scene);
   return scene;
+}
+
+Eigen::Matrix3d MarkerPose::frame() const {
+  if (tilted) return axes;
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  Eigen::Matrix3d m;
+  m << c, -s, 0, s, c, 0, 0, 0, 1;
+  return m;
 }
 
 MarkerPose Scene::marker_pose_at(std::size_t index, double t) const {
   const SceneMarker& m = markers.at(index);
-  const Trajectory& tr = m.trajectory;
-  MarkerPose pose = m.start;
-  Eigen::Vector2d pos(pose.x, pose.y);
-  Eigen::Vector2d dir(1, 0);
-  const double s = tr.speed * t;
-  switch (tr.kind) {
-    case Trajectory::Kind::kStatic:
-      return pose;
-    case Trajectory::Kind::kCircle: {
-      const double sign = tr.clockwise ? -1.0 : 1.0;
-      const double a = sign * s / tr.radius;
-      pos = tr.center + tr.radius * Eigen::Vector2d(std::cos(a), std::sin(a));
-      dir = sign * Eigen::Vector2d(-std::sin(a), std::cos(a));
-      break;
-    }
-    case Trajectory::Kind::kLine:
-      // Back and forth: the closed polyline from -> to -> from.
-      along_polyline(tr.points, s, pos, dir);
-      break;
-    case Trajectory::Kind::kWaypoints:
-      along_polyline(tr.points, tr.pause > 0 ? arc_with_pauses(tr.points, tr.speed, tr.pause, t) : s, pos, dir);
-      break;
-    case Trajectory::Kind::kPlacements: {
-      const long placed = read_index(tr.control);
-      if (placed < 0 || placed >= static_cast<long>(tr.placements.size())) {
-        pose.present = false;
-        return pose;
-      }
-      return tr.placements[static_cast<std::size_t>(placed)];
-    }
-  }
-  pose.x = pos.x();
-  pose.y = pos.y();
-  if (tr.heading_follows_path) pose.yaw = m.start.yaw + std::atan2(dir.y(), dir.x());
+  if (m.body < 0) return pose_on_trajectory(m.start, m.trajectory, t);
+  // A body's marker: the body's pose applied to the marker's place on it.
+  const BodyPose b = body_pose_at(static_cast<std::size_t>(m.body), t);
+  const Eigen::Matrix3d R = b.q.toRotationMatrix();
+  MarkerPose pose;
+  const Eigen::Vector3d c = b.position + R * m.on_body.position;
+  pose.x = c.x();
+  pose.y = c.y();
+  pose.z = c.z();
+  pose.tilted = true;
+  pose.axes = R * m.on_body.axes;
+  pose.yaw = std::atan2(pose.axes(1, 0), pose.axes(0, 0));
   return pose;
+}
+
+BodyPose Scene::body_pose_at(std::size_t index, double t) const {
+  const SceneBody& b = bodies.at(index);
+  const MarkerPose p = pose_on_trajectory(b.start, b.trajectory, t);
+  BodyPose out;
+  out.position = {p.x, p.y, p.z};
+  out.yaw = std::atan2(std::sin(p.yaw), std::cos(p.yaw));
+  out.q = Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(b.pitch, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(b.roll, Eigen::Vector3d::UnitX());
+  return out;
 }
 
 MarkerPose Scene::marker_pose(int id, double t) const {

@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 
+#include "ips/body.h"
 #include "ips/camera_model.h"
 
 namespace ips::sim {
@@ -23,6 +24,13 @@ struct MarkerPose {
   double z = 0.0;           ///< height of the marker's face above the floor, metres
   double yaw = 0.0;         ///< marker x-axis heading from world +x towards +y, radians
   bool present = true;      ///< false: the marker is not in the scene (picked up), not drawn
+  /// True for a marker on a body's face in any orientation: `axes` (columns: the marker's x,
+  /// y and face normal in the world) then defines its plane; (x, y, z) is its centre and yaw
+  /// the heading of its x axis. False: a face-up marker at height z turned by yaw.
+  bool tilted = false;
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
+  /// Marker axes in the world (from yaw when not tilted).
+  Eigen::Matrix3d frame() const;
 };
 
 /// How a marker moves. Static markers stay at their start pose.
@@ -33,6 +41,7 @@ struct Trajectory {
   Eigen::Vector2d center{0, 0};  ///< circle centre, metres
   double radius = 0.0;           ///< circle radius, metres
   bool clockwise = false;        ///< circle direction seen from above
+  double start_angle = 0.0;      ///< circle: where on it at t = 0, radians from +x (centre + radius (cos, sin))
   std::vector<Eigen::Vector2d>
       points;                        ///< line: {from, to} (back and forth); waypoints: closed loop
   bool heading_follows_path = true;  ///< yaw = direction of travel (+ yaw offset) else fixed yaw
@@ -51,6 +60,17 @@ struct SceneMarker {
   double margin =
       -1.0;          ///< white border around the black square, metres (<0: one cell, L/(bits+2))
   MarkerPose start;  ///< pose at t = 0 for static markers; height and yaw offset for moving ones
+  Trajectory trajectory;
+  int body = -1;     ///< index into Scene::bodies of the body carrying it (its pose follows the body's), or -1
+  BodyMarker on_body;  ///< the marker's place on that body
+};
+
+/// A rigid body of the scene (a robot carrying a marker cube, several markers): its markers
+/// are in Scene::markers (body = its index), drawn wherever the body's pose puts them.
+struct SceneBody {
+  BodyDef def;
+  MarkerPose start;   ///< x, y of the body origin at t = 0 (z: origin height), yaw offset
+  double roll = 0.0, pitch = 0.0;  ///< a fixed tilt of the body (radians), applied before yaw
   Trajectory trajectory;
 };
 
@@ -98,6 +118,7 @@ class Scene {
   RenderSettings render;
   std::vector<SceneCamera> cameras;
   std::vector<SceneMarker> markers;
+  std::vector<SceneBody> bodies;
 
   /// Loads and validates a scene file. Intrinsics paths are relative to the scene file.
   /// Throws ips::InputError naming the file, line and key.
@@ -105,6 +126,8 @@ class Scene {
 
   /// Pose of marker `index` (into `markers`) at scene time t (seconds).
   MarkerPose marker_pose_at(std::size_t index, double t) const;
+  /// Exact pose of body `index` (into `bodies`) at scene time t.
+  BodyPose body_pose_at(std::size_t index, double t) const;
   /// Pose of the marker with this id; throws std::out_of_range if absent.
   MarkerPose marker_pose(int id, double t) const;
 
