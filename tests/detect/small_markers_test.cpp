@@ -1,11 +1,11 @@
 // Issue #11's last "done means": simulated 7.5 cm markers at the edge of the fisheye view
 // (24-35 px) all found with the default settings. detector_test.cpp's random layout rarely
 // puts a marker where the default half-scale search used to lose it; this test puts every
-// marker there: the smallest images the red camera gives a 7.5 cm marker (the periphery of
-// its view, vignetted and over the textured floor's dark patches), turned so that its edges
-// run at 30-60 degrees in the image, where an 8-connected contour has the fewest points
-// (the old minimum perimeter dropped such markers) and half scale blurs the one-cell white
-// margin most.
+// marker there: the smallest images the red camera gives a 7.5 cm marker (the vignetted
+// periphery of its view, over the textured floor), turned so that its edges run 30-45
+// degrees off the image axes, where an 8-connected contour has the fewest points (the old
+// minimum perimeter dropped such markers) and half scale blurs the one-cell white margin
+// most.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
