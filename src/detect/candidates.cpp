@@ -5,6 +5,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "edge_refine.h"
+
 namespace ips::detail {
 namespace {
 
@@ -58,10 +60,13 @@ void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double
                            double max_side_px, std::vector<Candidate>& out) {
   const double side = std::max(image.cols, image.rows);
   if (image.cols < 8 || image.rows < 8) return;
-  // OpenCV's limits are perimeters as fractions of the larger side of the searched image.
-  // Its contour runs through the centres of the square's boundary pixels (~4 px short of
-  // the perimeter) and a fisheye view or a tilt shortens some sides: 20 % slack.
-  params_->minMarkerPerimeterRate = 0.8 * 4.0 * min_side_px / s / side;
+  // OpenCV's limits are perimeters as fractions of the larger side of the searched image,
+  // compared with the number of points of the 8-connected contour: a diagonal step is one
+  // point, so a square turned 45 degrees has only 1/sqrt(2) of its perimeter in points
+  // (24 px markers at 30-45 degrees near the fisheye edge were dropped here). The contour
+  // also runs through the centres of the square's boundary pixels (~4 px short of the
+  // perimeter) and a fisheye view or a tilt shortens some sides: 20 % slack on top.
+  params_->minMarkerPerimeterRate = 0.8 / std::sqrt(2.0) * 4.0 * min_side_px / s / side;
   params_->maxMarkerPerimeterRate =
       max_side_px > 0 ? std::min(options_.max_perimeter_rate, 4.0 * max_side_px / s / side)
                       : options_.max_perimeter_rate;
@@ -98,12 +103,20 @@ void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double
     ids_.clear();
     rejected_.clear();
     cv::aruco::detectMarkers(image, dictionary_, corners_, ids_, params_, rejected_);
-    // A pixel centre x at scale s is s*x + (s-1)/2 at full scale.
+    // A pixel centre x at scale s is s*x + (s-1)/2 at full scale. OpenCV's polygon runs
+    // through the centres of the outermost dark pixels, at least half a pixel (s/2 at full
+    // scale) inside the black square's edge, more where a thin white margin blurs into a
+    // dark floor at a coarse scale: there each edge is moved out by that half pixel. From
+    // the polygon itself, the edge refinement's profiles (+-0.45 cell) missed the edges of
+    // 24 px markers found at half scale (bench_perception "5s": 4 of 300 fell back to
+    // cornerSubPix with 1.3-5.8 px errors, 3 could not be read at all). At full resolution
+    // the half pixel is well inside the profiles and the polygon is left as it is.
     auto to_full = [&](const std::vector<cv::Point2f>& q, Candidate& c) {
       c.scale = s;
       for (std::size_t k = 0; k < 4; ++k) {
         c.corners[k] = {q[k].x * s + (s - 1) * 0.5 + offset.x, q[k].y * s + (s - 1) * 0.5 + offset.y};
       }
+      if (s > 1) offset_edges(c.corners, 0.5 * s);
     };
     for (std::size_t i = 0; i < ids_.size(); ++i) {
       Candidate c;
@@ -115,7 +128,7 @@ void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double
       if (q.size() != 4) continue;
       Candidate c;
       to_full(q, c);
-      if (c.side() / s > kRereadBelowCoarsePx) continue;
+      if ((c.side() - (s > 1 ? s : 0)) / s > kRereadBelowCoarsePx) continue;
       c.decoded_at_full_resolution = true;
       out.push_back(c);
     }

@@ -77,7 +77,7 @@ struct Detector::Impl {
   std::unique_ptr<detail::CodeBook> codes;
   detail::CellCheck check;
   detail::CandidateSearch search;
-  std::vector<detail::Candidate> candidates;
+  std::vector<detail::Candidate> candidates, local;
   std::vector<cv::Point2f> refine;
 };
 
@@ -135,13 +135,39 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rec
   if (roi.width < 8 || roi.height < 8) return out;
   const DetectionPlan plan = plan_detection(o, gray.size());
   const int cells = d.dictionary->markerSize + 2;
+  // OpenCV's search at full resolution around a square found at a coarse scale (its
+  // bounding box with half a side of margin), into d.local: where the coarse polygon is too
+  // far off for the edge profiles (a corner cut by the polygon approximation of a 12-15 px
+  // square), the full-resolution polygon is within a pixel. A ~60 px region costs little
+  // next to the full search.
+  auto search_near = [&](const detail::Candidate& c) {
+    d.local.clear();
+    double x0 = c.corners[0].x, x1 = x0, y0 = c.corners[0].y, y1 = y0;
+    for (const auto& q : c.corners) {
+      x0 = std::min(x0, q.x);
+      x1 = std::max(x1, q.x);
+      y0 = std::min(y0, q.y);
+      y1 = std::max(y1, q.y);
+    }
+    const double margin = 0.5 * c.side() + 4;
+    const cv::Rect box =
+        cv::Rect(cv::Point(static_cast<int>(x0 - margin), static_cast<int>(y0 - margin)),
+                 cv::Point(static_cast<int>(x1 + margin) + 1, static_cast<int>(y1 + margin) + 1)) &
+        cv::Rect(0, 0, gray.cols, gray.rows);
+    if (box.width >= 8 && box.height >= 8) {
+      d.search.run(gray(box), box.tl(), 1, plan.min_marker_px, 0.0, d.local);
+    }
+  };
 
   // 1-2. Candidate squares in the region, corners at full resolution: decoded ones with their
   // id, the others (id -1) read again below.
   d.candidates.clear();
   d.search.run(gray(roi), roi.tl(), plan.scale, plan.min_marker_px,
                plan.full_resolution_pass ? kMinCoarseMarkerPx * plan.scale : 0.0, d.candidates);
-  for (auto& c : d.candidates) {
+  // Indexed: squares found by the local full-resolution searches below are appended and
+  // read in the same loop.
+  for (std::size_t i = 0; i < d.candidates.size(); ++i) {
+    detail::Candidate c = d.candidates[i];
     if (c.id >= 0) continue;
     bool contrasted = false;
     c.id = detail::decode_marker(gray, c.corners, *d.dictionary, d.check, &contrasted);
@@ -154,14 +180,23 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rec
         if (c.id >= 0) c.corners = r;
       }
     }
+    // Still unread with a marker's contrast: the coarse polygon may be too far off to
+    // refine; the squares OpenCV finds around it at full resolution are read in this loop.
+    if (c.id < 0 && contrasted && c.scale > 1) {
+      search_near(c);
+      d.candidates.insert(d.candidates.end(), d.local.begin(), d.local.end());
+    }
+    d.candidates[i] = c;
   }
   detail::drop_duplicates(d.candidates);
   out.reserve(d.candidates.size());
   std::vector<bool> reread;  // decoded by us: read again with the refined corners
+  std::vector<const detail::Candidate*> source;
   for (const auto& c : d.candidates) {
     if (c.id < 0) continue;
     out.push_back({c.id, c.corners});
     reread.push_back(c.decoded_at_full_resolution);
+    source.push_back(&c);
   }
 
   // 3. Refine at full resolution.
@@ -171,10 +206,29 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rec
     if (o.refinement == CornerRefinement::kEdges) {
       // Twice: the second pass samples along the edges found by the first.
       std::array<Point2, 4> c = out[i].corners_px;
-      if (detail::refine_corners_by_edges(gray, c, cells, camera) &&
-          detail::refine_corners_by_edges(gray, c, cells, camera)) {
+      auto refine = [&](std::array<Point2, 4>& q) {
+        return detail::refine_corners_by_edges(gray, q, cells, camera) &&
+               detail::refine_corners_by_edges(gray, q, cells, camera);
+      };
+      if (refine(c)) {
         out[i].corners_px = c;
         continue;
+      }
+      // A coarse polygon the edges cannot be found from (cornerSubPix would move such a
+      // small marker's corners by pixels, 1 in 1000 7.5 cm markers failed the re-read
+      // then): the same marker found around it at full resolution, refined from there.
+      if (source[i]->scale > 1) {
+        search_near(*source[i]);
+        bool done = false;
+        for (auto& l : d.local) {
+          c = l.corners;
+          const int id = l.id >= 0 ? l.id : detail::decode_marker(gray, c, *d.dictionary, d.check);
+          if (id != out[i].id || !refine(c)) continue;
+          out[i].corners_px = c;
+          done = true;
+          break;
+        }
+        if (done) continue;
       }
     }
     subpix.push_back(i);

@@ -74,6 +74,37 @@ bool meet(const Edge& in, const Edge& out, Point2& p) {
 
 }  // namespace
 
+bool offset_edges(std::array<Point2, 4>& q, double d) {
+  Point2 c{0, 0};
+  for (const auto& p : q) {
+    c.x += p.x / 4;
+    c.y += p.y / 4;
+  }
+  // Edge i from q[i] to q[i+1], as a point on the moved line and a direction.
+  std::array<Point2, 4> at{}, dir{};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Point2 a = q[i], b = q[(i + 1) % 4];
+    const double len = std::hypot(b.x - a.x, b.y - a.y);
+    if (!(len > 0)) return false;
+    dir[i] = {(b.x - a.x) / len, (b.y - a.y) / len};
+    Point2 n{dir[i].y, -dir[i].x};
+    if (n.x * ((a.x + b.x) / 2 - c.x) + n.y * ((a.y + b.y) / 2 - c.y) < 0) n = {-n.x, -n.y};
+    at[i] = {a.x + d * n.x, a.y + d * n.y};
+  }
+  std::array<Point2, 4> out{};
+  for (std::size_t i = 0; i < 4; ++i) {
+    // Corner i: edge i-1 meets edge i.
+    const std::size_t j = (i + 3) % 4;
+    const double det = dir[j].x * -dir[i].y + dir[i].x * dir[j].y;
+    if (std::abs(det) < 1e-6) return false;
+    const double rx = at[i].x - at[j].x, ry = at[i].y - at[j].y;
+    const double u = (rx * -dir[i].y + dir[i].x * ry) / det;
+    out[i] = {at[j].x + u * dir[j].x, at[j].y + u * dir[j].y};
+  }
+  q = out;
+  return true;
+}
+
 bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners, int cells,
                              const CameraModel* camera, const EdgeRefineOptions& o) {
   Point2 centre{0, 0};

@@ -28,4 +28,9 @@ struct EdgeRefineOptions {
 bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners, int cells,
                              const CameraModel* camera, const EdgeRefineOptions& options = {});
 
+/// Moves each edge of a convex quadrilateral outward (away from its centre) by `d` pixels
+/// along its normal; the new corners are where neighbouring moved edges meet. False (q
+/// untouched) when neighbouring edges are (nearly) parallel.
+bool offset_edges(std::array<Point2, 4>& q, double d);
+
 }  // namespace ips::detail
