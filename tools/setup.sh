@@ -19,6 +19,7 @@ PACKAGES=(
   libsodium-dev                            # HMAC-SHA256 + CSPRNG for the subscriptions output
   chromium                                 # headless browser for the web view's tests
   libgtest-dev libgmock-dev libbenchmark-dev
+  clang-14 libclang-rt-14-dev               # the sanitizer build and libFuzzer (fuzz/)
   python3
 )
 

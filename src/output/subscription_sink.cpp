@@ -239,7 +239,8 @@ void SubscriptionSink::expire_locked(std::int64_t now) {
 void SubscriptionSink::publish(const Datagram& update) {
   std::lock_guard lock(mutex_);
   expire_locked(monotonic_ns());
-  for (auto& [key, s] : subscribers_) {
+  for (auto& entry : subscribers_) {  // not a structured binding: the lambda captures s (Clang 14)
+    auto& s = entry.second;
     Datagram mine = update;
     if (!s.all) std::erase_if(mine.markers, [&](const MarkerRecord& m) { return !s.ids.count(m.id); });
     for (Datagram& d : split_update(mine, s.format)) {

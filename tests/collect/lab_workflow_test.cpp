@@ -22,6 +22,7 @@
 #include "ips/sim/scene.h"
 #include "process_util.h"
 #include "published_scene.h"
+#include "release_only.h"
 
 namespace ips {
 namespace {
@@ -40,6 +41,7 @@ struct Placement {
 };
 
 TEST(LabWorkflow, CalibrateCollectFitThenIpsdIsWithinOneCentimetre) {
+  IPS_RELEASE_ONLY("CollectCli.*, CalibCli.* and IpsdTest.* (each step on its own)");
   const fs::path dir = fs::temp_directory_path() / ("ips_lab_workflow_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);

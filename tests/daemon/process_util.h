@@ -30,13 +30,13 @@ using support::UdpReceiver;
 using support::wait_exit;
 
 // Sanitizer builds run the daemon (rendering, detection) several times slower: wait longer.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#if defined(IPS_SANITIZED)
 constexpr double kTimeScale = 6.0;
 #else
 constexpr double kTimeScale = 1.0;
 #endif
 
-inline std::string bin(const std::string& name) { return std::string(IPS_BINARY_DIR) + "/" + name; }
+inline std::string bin(const std::string& name) { return (std::filesystem::path(IPS_BINARY_DIR) / name).string(); }
 
 /// The whole file as text ("" if it cannot be read).
 inline std::string read_file(const std::filesystem::path& p) {

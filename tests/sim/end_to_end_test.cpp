@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include "release_only.h"
 
 namespace fs = std::filesystem;
 
@@ -28,6 +29,7 @@ std::pair<int, std::string> run(const std::string& args) {
 }
 
 TEST(EndToEnd, SimCollectFitEvalMeetsThePublishedAccuracy) {
+  IPS_RELEASE_ONLY("Cli.Sim* and the mapping tests (each step on its own)");
   const fs::path dir = fs::temp_directory_path() / "ips_end_to_end_test";
   fs::remove_all(dir);
   fs::create_directories(dir);

@@ -170,7 +170,7 @@ TEST_F(WebServerTest, ServesThePageAndJsonAndRefusesMalformedRequests) {
       "GET /status.json HTTP/1.1\r\nHost: x\r\nContent-Length: abc\r\n\r\n",
       "GET /status.json HTTP/1.1\r\nHost: x\r\nContent-Length: 99999999999999999999\r\n\r\n",
   };
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(IPS_SANITIZED)
   // CivetWeb answers what it cannot parse itself, on its own request thread, whose stack size
   // Debian's build fixed at 100 KiB: under ASan its error path (vsnprintf through the
   // sanitizer's interceptors) overflows that stack inside the library. Our handlers run on a

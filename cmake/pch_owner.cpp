@@ -1,0 +1,1 @@
+// Compiles nothing: the target exists to build a precompiled header (cmake/Precompiled.cmake).
