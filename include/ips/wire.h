@@ -56,6 +56,9 @@
 #include <string.h>
 
 #ifdef __cplusplus
+/* C casts are this header's idiom (it is C for firmware); C++ projects warn on them (clang). */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wold-style-cast"
 extern "C" {
 #endif
 
@@ -302,6 +305,7 @@ static inline void ips_wire_read_marker(const uint8_t* buf, const struct ips_wir
 
 #ifdef __cplusplus
 }
+#pragma GCC diagnostic pop
 #endif
 
 #endif /* IPS_WIRE_H */
