@@ -44,11 +44,11 @@ printf '\n%-14s %14s %8s %8s %9s %s\n' target executions cov ft corpus findings
 status=0
 for t in $TARGETS; do
   dir=$WORK/$t
-  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/log" | grep -o '[0-9]*$' | tail -1)
-  last=$(grep -E '^#[0-9]+' "$dir/log" | grep -o 'cov: [0-9]* ft: [0-9]* corp: [0-9]*' | tail -1)
+  execs=$( (grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/log" || true) | grep -o '[0-9]*$' | tail -1)
+  last=$( (grep -E '^#[0-9]+' "$dir/log" || true) | grep -o 'cov: [0-9]* ft: [0-9]* corp: [0-9]*' | tail -1)
   cov=$(echo "$last" | awk '{print $2}'); ft=$(echo "$last" | awk '{print $4}'); corp=$(echo "$last" | awk '{print $6}')
   findings=()
-  for f in "$dir"/artifacts/*; do
+  for f in "$dir"/artifacts/{crash,leak,timeout,oom,slow-unit}-*; do
     [[ -e $f ]] || continue
     mkdir -p "$ROOT/tests/fuzz/$t"
     cp "$f" "$ROOT/tests/fuzz/$t/"

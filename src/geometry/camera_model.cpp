@@ -250,6 +250,18 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
       throw InputError(where + ": not an OpenCV calibration file (" + e.err + ")");
     }
   };
+  if (opencv_form && s.rfind("%YAML:1.", 0) == 0) {
+    // OpenCV 4.6's YAML reader ends the process (std::terminate from inside FileStorage::open,
+    // uncatchable) on a nested key that starts with ':' (found by fuzz_intrinsics): refuse such
+    // lines before OpenCV sees them. No OpenCV-written file has one.
+    std::istringstream lines(s);
+    std::string line;
+    for (int n = 1; std::getline(lines, line); ++n) {
+      const auto first = line.find_first_not_of(" \t");
+      if (first != std::string::npos && line[first] == ':')
+        throw InputError(where + ":" + std::to_string(n) + ": a key starting with ':' (not an OpenCV calibration file)");
+    }
+  }
   if (opencv_form) return opencv();
   YAML::Node root;
   try {

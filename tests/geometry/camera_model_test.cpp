@@ -243,6 +243,8 @@ TEST(CameraModel, OpenCVFilesOpenCVCannotNavigateAreInputErrors) {
        "image_width"},
       {"cv_inf_height.yml", "%YAML:1.0\n---\nimage_width: 1280\nimage_height: -.Inf\n" + matrices,
        "image_height"},
+      // OpenCV 4.6's reader calls std::terminate on this (a nested key starting with ':').
+      {"cv_colon_key.yml", "%YAML:1.0\n---\nm:\n   rows: 3\n   :cols: 3\n", "cv_colon_key.yml:5: a key starting with ':'"},
       // OpenCV would allocate 30000 x 30000 doubles (7 GB) before noticing the data is short.
       {"cv_rows_typo.yml",
        "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\ncamera_matrix: !!opencv-matrix\n"
