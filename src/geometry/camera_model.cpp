@@ -252,14 +252,17 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
   };
   if (opencv_form && s.rfind("%YAML:1.", 0) == 0) {
     // OpenCV 4.6's YAML reader ends the process (std::terminate from inside FileStorage::open,
-    // uncatchable) on a nested key that starts with ':' (found by fuzz_intrinsics): refuse such
-    // lines before OpenCV sees them. No OpenCV-written file has one.
+    // uncatchable) on a nested key that starts with ':', and loops forever on a '%' line after
+    // the first (both found by fuzz_intrinsics): refuse such lines before OpenCV sees them. No
+    // OpenCV-written file has one.
     std::istringstream lines(s);
     std::string line;
     for (int n = 1; std::getline(lines, line); ++n) {
       const auto first = line.find_first_not_of(" \t");
       if (first != std::string::npos && line[first] == ':')
         throw InputError(where + ":" + std::to_string(n) + ": a key starting with ':' (not an OpenCV calibration file)");
+      if (n > 1 && first != std::string::npos && line[first] == '%')
+        throw InputError(where + ":" + std::to_string(n) + ": a '%' directive after the first line (not an OpenCV calibration file)");
     }
   }
   if (opencv_form) return opencv();

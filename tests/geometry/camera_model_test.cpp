@@ -245,6 +245,8 @@ TEST(CameraModel, OpenCVFilesOpenCVCannotNavigateAreInputErrors) {
        "image_height"},
       // OpenCV 4.6's reader calls std::terminate on this (a nested key starting with ':').
       {"cv_colon_key.yml", "%YAML:1.0\n---\nm:\n   rows: 3\n   :cols: 3\n", "cv_colon_key.yml:5: a key starting with ':'"},
+      // ... and loops forever on this one (a second '%' line).
+      {"cv_second_directive.yml", "%YAML:1.0\nimage_width: 640\n%Y---\n   3\n   cols: 3\n", "cv_second_directive.yml:3: a '%' directive"},
       // OpenCV would allocate 30000 x 30000 doubles (7 GB) before noticing the data is short.
       {"cv_rows_typo.yml",
        "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\ncamera_matrix: !!opencv-matrix\n"
