@@ -241,7 +241,8 @@ void SubscriptionSink::publish(const Datagram& update) {
   expire_locked(monotonic_ns());
   for (auto& [key, s] : subscribers_) {
     Datagram mine = update;
-    if (!s.all) std::erase_if(mine.markers, [&](const MarkerRecord& m) { return !s.ids.count(m.id); });
+    // Init-capture: clang 14 cannot capture a structured binding itself.
+    if (!s.all) std::erase_if(mine.markers, [&ids = s.ids](const MarkerRecord& m) { return !ids.count(m.id); });
     for (Datagram& d : split_update(mine, s.format)) {
       d.sequence = s.sequence++;
       d.publish_realtime_ns = realtime_ns();
