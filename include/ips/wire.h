@@ -56,7 +56,7 @@
 #include <string.h>
 
 #ifdef __cplusplus
-/* C casts are the only casts in C; a C++ includer's -Wold-style-cast (Clang's) must not flag them. */
+/* C casts are this header's idiom (it is C for firmware); C++ projects warn on them (clang). */
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wold-style-cast"
 extern "C" {

@@ -138,6 +138,7 @@ MarkerConfig parse_markers(const YAML::Node& n, const std::string& file) {
     if (!ids.IsMap()) r.fail(ids, "markers.ids", "expected a mapping of marker id -> settings");
     for (const auto& kv : ids) {
       int id = -1;
+      if (!kv.first.IsScalar()) r.fail(kv.first, "markers.ids", "marker id must be a non-negative integer");
       const std::string id_text = kv.first.as<std::string>();
       try {
         id = kv.first.as<int>();

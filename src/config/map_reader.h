@@ -29,6 +29,9 @@ class MapReader {
     // yaml-cpp keeps duplicate keys silently; a repeated key is almost always a paste error.
     std::set<std::string> keys;
     for (const auto& kv : node_) {
+      // A list or mapping as a key (YAML's `? [a]: 1`) has no string form: yaml-cpp would throw
+      // its own exception past the file:line message (found by fuzz_scene / fuzz_config).
+      if (!kv.first.IsScalar()) fail(kv.first, path_.empty() ? "the document" : path_, "a key must be a plain word");
       const std::string k = kv.first.as<std::string>();
       if (!keys.insert(k).second) fail(kv.first, key(k), "duplicate key");
     }

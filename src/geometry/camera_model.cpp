@@ -138,6 +138,16 @@ CameraModel load_opencv_storage(const std::string& where, const std::filesystem:
   auto read_mat = [&](std::initializer_list<const char*> keys) {
     cv::FileNode n = first_of(fs, keys, key);
     if (n.empty()) throw InputError(where + ": missing key '" + key + "'");
+    // OpenCV allocates rows x cols before it reads the data: check the shape against the data
+    // first, or a typo in `rows` asks for gigabytes (found by fuzz_intrinsics).
+    if (n.isMap()) {
+      const cv::FileNode r = n["rows"], c = n["cols"], d = n["data"];
+      const bool ok = r.isInt() && c.isInt() && static_cast<int>(r) >= 1 && static_cast<int>(c) >= 1 &&
+                      static_cast<int>(r) <= 16 && static_cast<int>(c) <= 16 && d.isSeq() &&
+                      d.size() == static_cast<std::size_t>(static_cast<int>(r) * static_cast<int>(c));
+      if (!ok)
+        throw InputError(where + ": key '" + key + "': not a matrix (rows x cols, at most 16 x 16, must match data)");
+    }
     cv::Mat m;
     try {
       n >> m;
@@ -153,7 +163,10 @@ CameraModel load_opencv_storage(const std::string& where, const std::filesystem:
     if (n.empty() || !(n.isInt() || n.isReal())) {
       throw InputError(where + ": missing or non-numeric key '" + key + "'");
     }
-    return static_cast<int>(n.real());
+    // Range first: converting a double outside int's range is undefined (found by fuzz_intrinsics).
+    const double v = n.real();
+    if (!(v > -1e9 && v < 1e9)) throw InputError(where + ": key '" + key + "': out of range");
+    return static_cast<int>(v);
   };
   const auto [kmat, kkey] = read_mat({"camera_matrix", "mtx", "K", "cameraMatrix"});
   if (kmat.total() != 9) {
@@ -172,8 +185,7 @@ CameraModel load_opencv_storage(const std::string& where, const std::filesystem:
     if (!m.isString()) throw InputError(where + ": key 'model': not a string");
     kind = parse_kind(where, m.string());
   } else if (cv::FileNode f = fs["fisheye_model"]; !f.empty()) {
-    kind =
-        static_cast<int>(f.real()) != 0 ? CameraModel::Kind::kFisheye : CameraModel::Kind::kPinhole;
+    kind = f.real() != 0.0 ? CameraModel::Kind::kFisheye : CameraModel::Kind::kPinhole;
   }
   cv::Matx33d K;
   for (int i = 0; i < 9; ++i) K.val[i] = kmat.at<double>(0, i);
@@ -229,7 +241,31 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
   const bool opencv_form = s.rfind("%YAML:1.", 0) == 0 ||
                            s.find("<opencv_storage>") != std::string::npos ||
                            path.extension() == ".xml" || path.extension() == ".json";
-  if (opencv_form) return load_opencv_storage(where, path);
+  // OpenCV throws cv::Exception for files it opens but cannot navigate (a top-level sequence,
+  // a scalar where a map is expected): bad input, said as such (found by fuzz_intrinsics).
+  auto opencv = [&] {
+    try {
+      return load_opencv_storage(where, path);
+    } catch (const cv::Exception& e) {
+      throw InputError(where + ": not an OpenCV calibration file (" + e.err + ")");
+    }
+  };
+  if (opencv_form && s.rfind("%YAML:1.", 0) == 0) {
+    // OpenCV 4.6's YAML reader ends the process (std::terminate from inside FileStorage::open,
+    // uncatchable) on a nested key that starts with ':', and loops forever on a '%' line after
+    // the first (both found by fuzz_intrinsics): refuse such lines before OpenCV sees them. No
+    // OpenCV-written file has one.
+    std::istringstream lines(s);
+    std::string line;
+    for (int n = 1; std::getline(lines, line); ++n) {
+      const auto first = line.find_first_not_of(" \t");
+      if (first != std::string::npos && line[first] == ':')
+        throw InputError(where + ":" + std::to_string(n) + ": a key starting with ':' (not an OpenCV calibration file)");
+      if (n > 1 && first != std::string::npos && line[first] == '%')
+        throw InputError(where + ":" + std::to_string(n) + ": a '%' directive after the first line (not an OpenCV calibration file)");
+    }
+  }
+  if (opencv_form) return opencv();
   YAML::Node root;
   try {
     root = YAML::Load(s);
@@ -237,7 +273,7 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
     throw InputError(where + ":" + std::to_string(e.mark.line + 1) + ": YAML error: " + e.msg);
   }
   if (!root.IsMap()) throw InputError(where + ": expected a YAML mapping of intrinsics keys");
-  if (!root["K"] && (root["camera_matrix"] || root["mtx"])) return load_opencv_storage(where, path);
+  if (!root["K"] && (root["camera_matrix"] || root["mtx"])) return opencv();
   return load_ipsd_yaml(where, root);
 }
 

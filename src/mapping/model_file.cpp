@@ -33,6 +33,10 @@ ModelSet load_model_file(const std::filesystem::path& path) {
     doc = nlohmann::json::parse(buffer.str());
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(name + ": not a valid JSON document (byte " + std::to_string(e.byte) + ")");
+  } catch (const nlohmann::json::exception& e) {
+    // A number beyond double's range is an out_of_range error, not a parse_error (found by
+    // fuzz_model_file).
+    throw InputError(name + ": not a valid JSON document (" + e.what() + ")");
   }
   if (!doc.is_object() || !doc.contains("format") || doc["format"] != kFormat)
     throw InputError(name + ": not an ipsd model file (missing \"format\": \"" + kFormat + "\")");

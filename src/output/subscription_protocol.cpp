@@ -33,7 +33,8 @@ Mac hmac_sha256(std::span<const std::uint8_t> key, std::span<const std::uint8_t>
 }
 
 std::vector<std::uint8_t> encode_request(const Request& r, const std::string& psk) {
-  std::vector<std::uint8_t> b(IPS_SUB_MAGIC_REQUEST, IPS_SUB_MAGIC_REQUEST + 4);
+  const char* magic = IPS_SUB_MAGIC_REQUEST;
+  std::vector<std::uint8_t> b(magic, magic + 4);
   b.push_back(IPS_SUB_VERSION);
   b.push_back(static_cast<std::uint8_t>(r.op));
   b.push_back(r.format == WireFormat::kJson ? 1 : 0);
@@ -92,7 +93,8 @@ std::optional<Request> decode_request(std::span<const std::uint8_t> bytes, const
 }
 
 std::vector<std::uint8_t> encode_reply(const Reply& r) {
-  std::vector<std::uint8_t> b(IPS_SUB_MAGIC_REPLY, IPS_SUB_MAGIC_REPLY + 4);
+  const char* magic = IPS_SUB_MAGIC_REPLY;
+  std::vector<std::uint8_t> b(magic, magic + 4);
   b.push_back(IPS_SUB_VERSION);
   b.push_back(static_cast<std::uint8_t>(r.status));
   put_u16(b, 0);

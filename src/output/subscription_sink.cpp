@@ -242,7 +242,8 @@ void SubscriptionSink::publish(const Datagram& update) {
   for (auto& entry : subscribers_) {  // not a structured binding: the lambda captures s (Clang 14)
     auto& s = entry.second;
     Datagram mine = update;
-    if (!s.all) std::erase_if(mine.markers, [&](const MarkerRecord& m) { return !s.ids.count(m.id); });
+    // Init-capture: clang 14 cannot capture a structured binding itself.
+    if (!s.all) std::erase_if(mine.markers, [&ids = s.ids](const MarkerRecord& m) { return !ids.count(m.id); });
     for (Datagram& d : split_update(mine, s.format)) {
       d.sequence = s.sequence++;
       d.publish_realtime_ns = realtime_ns();

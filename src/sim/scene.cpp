@@ -77,6 +77,8 @@ class Reader {
                  std::initializer_list<const char*> keys) const {
     if (!map.IsMap()) fail(map, path.empty() ? "scene" : path, "expected a mapping");
     for (const auto& kv : map) {
+      // A list or mapping as a key has no string form (found by fuzz_scene).
+      if (!kv.first.IsScalar()) fail(kv.first, path.empty() ? "scene" : path, "a key must be a plain word");
       const auto k = kv.first.as<std::string>();
       bool ok = false;
       for (const char* allowed : keys) ok = ok || k == allowed;

@@ -170,6 +170,7 @@ std::vector<Reference> load_references(const std::filesystem::path& path) {
                            std::to_string(i) + "]";
     if (!n.IsMap()) throw InputError(at + ": expected {id: N, x: X, y: Y, z: Z}");
     for (const auto& kv : n) {
+      if (!kv.first.IsScalar()) throw InputError(at + ": a key must be a plain word (id, x, y, z)");
       const auto key = kv.first.as<std::string>();
       if (key != "id" && key != "x" && key != "y" && key != "z")
         throw InputError(at + ": unknown key '" + key + "' (id, x, y, z)");

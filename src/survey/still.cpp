@@ -43,7 +43,8 @@ std::vector<StillPeriod> find_still_periods(const Session& session, const StillO
   for (std::size_t c = 0; c < session.cameras.size(); ++c) {
     std::map<int, std::vector<const Detection*>> by_id;
     for (const auto& d : session.cameras[c].detections) by_id[d.id].push_back(&d);
-    for (auto& entry : by_id) {  // not a structured binding: lambdas below capture these (Clang 14)
+    for (auto& entry : by_id) {
+      // Named variables, not a structured binding: clang 14 cannot capture one in `emit`.
       const int id = entry.first;
       std::vector<const Detection*>& dets = entry.second;
       std::stable_sort(dets.begin(), dets.end(), [](const Detection* a, const Detection* b) { return a->t_ns < b->t_ns; });

@@ -259,6 +259,9 @@ TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
   expect_error(m + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: 7, format: xml}\n", {"outputs[0].format: unknown value 'xml'"});
   expect_error(m + "logging: {level: loud}\n", {"logging.level: unknown value 'loud'"});
   expect_error(m + "markers: {ids: {x1: {height: 0.1}}}\n", {"markers.ids.x1: marker id must be"});
+  // A list or mapping as a key (found by fuzz_scene; yaml-cpp's own exception escaped before).
+  expect_error(m + "? [fusion]\n: {window: 1}\n", {"ipsd.yaml:7:", "the document: a key must be a plain word"});
+  expect_error(m + "markers: {ids: {? [3]: {height: 0.1}}}\n", {"markers.ids: marker id must be"});
   expect_error(m + "markers: {edge_length: 0}\n", {"markers.edge_length: must be > 0"});
   expect_error(std::string(kMinimal).replace(m.find("red.yaml"), 8, "nothere.yaml"),
                {"cameras[0].intrinsics: no such file", "nothere.yaml"});

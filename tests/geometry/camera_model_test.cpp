@@ -207,4 +207,58 @@ TEST(CameraModel, BadFilesNameTheKey) {
             std::string::npos);
 }
 
+TEST(CameraModel, ReadsOpenCVXml) {
+  const auto p = write_temp(
+      "cv_calib.xml",
+      "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>640</image_width>\n"
+      "<image_height>480</image_height>\n<camera_matrix type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols>"
+      "<dt>d</dt>\n<data>500. 0. 320. 0. 500. 240. 0. 0. 1.</data></camera_matrix>\n"
+      "<distortion_coefficients type_id=\"opencv-matrix\"><rows>5</rows><cols>1</cols><dt>d</dt>\n"
+      "<data>0.1 -0.05 0. 0. 0.01</data></distortion_coefficients>\n</opencv_storage>\n");
+  const auto m = ips::CameraModel::load(p);
+  EXPECT_EQ(m.kind(), ips::CameraModel::Kind::kPinhole);
+  EXPECT_EQ(m.size().width, 640);
+  EXPECT_DOUBLE_EQ(m.K()(0, 2), 320.0);
+  ASSERT_GE(m.D().size(), 5u);  // pinhole D is held padded to OpenCV's 8 terms
+  EXPECT_DOUBLE_EQ(m.D()[4], 0.01);
+}
+
+// Found by fuzz/fuzz_intrinsics (regression inputs in tests/fuzz/intrinsics/): OpenCV files that
+// FileStorage opens but cannot navigate threw cv::Exception past the loader (the daemon exited
+// 1 with OpenCV's internal message), an image size beyond int was converted undefinedly, and a
+// matrix's rows/cols were allocated before being checked against its data.
+TEST(CameraModel, OpenCVFilesOpenCVCannotNavigateAreInputErrors) {
+  const std::string matrices =
+      "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+      "   data: [ 700., 0., 640., 0., 700., 360., 0., 0., 1. ]\n"
+      "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
+      "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n";
+  struct Case {
+    const char* name;
+    std::string text;
+    const char* says;
+  } cases[] = {
+      {"cv_sequence.yml", "%YAML:1.0caAe\n%Y---\n-", "not an OpenCV calibration file"},
+      {"cv_huge_width.yml", "%YAML:1.0\n---\nimage_width: 1e300\nimage_height: 720\n" + matrices,
+       "image_width"},
+      {"cv_inf_height.yml", "%YAML:1.0\n---\nimage_width: 1280\nimage_height: -.Inf\n" + matrices,
+       "image_height"},
+      // OpenCV 4.6's reader calls std::terminate on this (a nested key starting with ':').
+      {"cv_colon_key.yml", "%YAML:1.0\n---\nm:\n   rows: 3\n   :cols: 3\n", "cv_colon_key.yml:5: a key starting with ':'"},
+      // ... and loops forever on this one (a second '%' line).
+      {"cv_second_directive.yml", "%YAML:1.0\nimage_width: 640\n%Y---\n   3\n   cols: 3\n", "cv_second_directive.yml:3: a '%' directive"},
+      // OpenCV would allocate 30000 x 30000 doubles (7 GB) before noticing the data is short.
+      {"cv_rows_typo.yml",
+       "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\ncamera_matrix: !!opencv-matrix\n"
+       "   rows: 30000\n   cols: 30000\n   dt: d\n   data: [ 700., 0., 640., 0., 700., 360., 0., 0., 1. ]\n",
+       "camera_matrix"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string msg = expect_input_error(write_temp(c.name, c.text));
+    EXPECT_NE(msg.find(c.says), std::string::npos) << msg;
+    EXPECT_NE(msg.find(c.name), std::string::npos) << msg;
+  }
+}
+
 }  // namespace

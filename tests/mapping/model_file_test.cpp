@@ -109,6 +109,10 @@ TEST(ModelFile, RefusesBadFilesWithClearErrors) {
   };
   std::string e = load_error("{\"format\": \"ipsd-model\", ");
   EXPECT_TRUE(has(e, "not a valid JSON document")) << e;
+  // A number beyond double's range: nlohmann's out_of_range, not a parse_error (found by
+  // fuzz_model_file, tests/fuzz/model_file/number_overflow.json).
+  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"t":[1e999,0,0]}}}})");
+  EXPECT_TRUE(has(e, "not a valid JSON document")) << e;
   e = load_error(R"({"format":"something-else","version":1,"cameras":{}})");
   EXPECT_TRUE(has(e, "not an ipsd model file")) << e;
   e = load_error(R"({"format":"ipsd-model","version":2,"cameras":{"a":{}}})");

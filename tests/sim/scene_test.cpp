@@ -252,6 +252,8 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
     const char* expect;
   } cases[] = {
       {"no_cameras.yaml", "floor: {size: [4, 4]}\n", "cameras"},
+      // A mapping as a key (found by fuzz_scene, tests/fuzz/scene/complex_key.yaml).
+      {"complex_key.yaml", cam + "floor:\n  ? size: [4, 4]\n  : 1\n", "a key must be a plain word"},
       {"typo.yaml", cam + "flor: {size: [4, 4]}\n", "flor"},
       {"bad_size.yaml", cam + "floor: {size: [4, -1]}\n", "floor.size"},
       {"bad_intr.yaml",

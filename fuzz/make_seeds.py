@@ -1,0 +1,129 @@
+#!/usr/bin/env python3
+"""Writes the fuzz seeds in fuzz/corpus/ (run from anywhere): copies of repository files,
+hand-made datagrams and requests (layouts of include/ips/wire.h), small JPEGs of a real photo.
+The model_file seeds are `ips fit` outputs, made by
+  for m in rt pr rt+pr ann ki plane auto; do
+    ips fit --data calib_data/ou2023/train40.csv --camera red --method $m --out fuzz/corpus/model_file/red_${m/+/_}.json
+  done"""
+import hashlib, hmac, os, shutil, struct, subprocess, sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+C = os.path.join(ROOT, "fuzz", "corpus")
+
+
+def put(target, name, data):
+    os.makedirs(os.path.join(C, target), exist_ok=True)
+    with open(os.path.join(C, target, name), "wb") as f:
+        f.write(data.encode() if isinstance(data, str) else data)
+
+
+def copy(target, *paths):
+    for p in paths:
+        put(target, os.path.basename(p), open(os.path.join(ROOT, p), "rb").read())
+
+
+def datagram(markers, velocity=False, part=0, parts=1, extra=0):
+    rs = (48 if velocity else 36) + extra
+    h = b"IPSD" + struct.pack("<HHIHHBBHIqqq", 1, 1 if velocity else 0, 7, len(markers), rs, part, parts, 0, 42,
+                              1700000000000000000, 123456789, 1700000000001000000)
+    body = b""
+    for i, (mid, x, y) in enumerate(markers):
+        r = struct.pack("<IIffffffi", mid, 0b101, x, y, 0.1, 1.57, 2500.0, 0.004, -1200 * i)
+        if velocity:
+            r += struct.pack("<fff", 0.5, -0.25, 0.0)
+        body += r + b"\0" * extra
+    return h + body
+
+
+def tj_small(jpeg, w, h, gray, samp, progressive, quality):
+    """`jpeg` decoded at 1/8 scale, its top-left w x h re-encoded (TJPF_GRAY=6 / TJPF_RGB=0)."""
+    import ctypes
+    tj = ctypes.CDLL("libturbojpeg.so.0")
+    tj.tjInitDecompress.restype = tj.tjInitCompress.restype = ctypes.c_void_p
+    d = ctypes.c_void_p(tj.tjInitDecompress())
+    W, H, ss, cs = (ctypes.c_int() for _ in range(4))
+    assert tj.tjDecompressHeader3(d, jpeg, ctypes.c_ulong(len(jpeg)), ctypes.byref(W), ctypes.byref(H),
+                                  ctypes.byref(ss), ctypes.byref(cs)) == 0
+    sw, sh = (W.value + 7) // 8, (H.value + 7) // 8
+    ch = 1 if gray else 3
+    full = ctypes.create_string_buffer(sw * sh * ch)
+    assert tj.tjDecompress2(d, jpeg, ctypes.c_ulong(len(jpeg)), full, sw, sw * ch, sh, 6 if gray else 0, 0) == 0
+    x0, y0 = (sw - w) // 2, (sh - h) // 2  # the middle, where the picture is
+    crop = b"".join(full.raw[((y0 + y) * sw + x0) * ch:((y0 + y) * sw + x0 + w) * ch] for y in range(h))
+    c = ctypes.c_void_p(tj.tjInitCompress())
+    out, size = ctypes.c_void_p(), ctypes.c_ulong()
+    assert tj.tjCompress2(c, crop, w, w * ch, h, 6 if gray else 0, ctypes.byref(out), ctypes.byref(size), samp,
+                          quality, 16384 if progressive else 0) == 0
+    data = ctypes.string_at(out, size.value)
+    tj.tjFree(out)
+    return data
+
+
+def main():
+    copy("config", "config/ipsd.yaml", "config/demo.yaml")
+    copy("scene", "config/scenes/ou2023.yaml", "config/scenes/calib_lenses.yaml", "config/scenes/survey_lab.yaml")
+    copy("intrinsics", "calib_data/ou2023/intrinsics_red.yaml", "config/scenes/lenses/pinhole_wide.yaml")
+    put("intrinsics", "opencv_fisheye.yaml",
+        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
+        "   dt: d\n   data: [ 300., 0., 320., 0., 300., 240., 0., 0., 1. ]\n"
+        "distortion_coefficients: !!opencv-matrix\n   rows: 4\n   cols: 1\n   dt: d\n   data: [ 0.01, -0.002, 0.0003, 0. ]\n"
+        "distortion_model: fisheye\n")
+    put("intrinsics", "opencv_pinhole.xml",
+        "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>640</image_width>\n<image_height>480</image_height>\n"
+        "<camera_matrix type_id=\"opencv-matrix\"><rows>3</rows><cols>3</cols><dt>d</dt>\n"
+        "<data>500. 0. 320. 0. 500. 240. 0. 0. 1.</data></camera_matrix>\n"
+        "<distortion_coefficients type_id=\"opencv-matrix\"><rows>5</rows><cols>1</cols><dt>d</dt>\n"
+        "<data>0.1 -0.05 0. 0. 0.01</data></distortion_coefficients>\n</opencv_storage>\n")
+    put("intrinsics", "opencv.json",
+        "{\n  \"image_width\": 640, \"image_height\": 480,\n  \"camera_matrix\": {\"type_id\": \"opencv-matrix\", \"rows\": 3, "
+        "\"cols\": 3, \"dt\": \"d\", \"data\": [300.0, 0.0, 320.0, 0.0, 300.0, 240.0, 0.0, 0.0, 1.0]},\n"
+        "  \"distortion_coefficients\": {\"type_id\": \"opencv-matrix\", \"rows\": 4, \"cols\": 1, \"dt\": \"d\", "
+        "\"data\": [0.01, -0.002, 0.0003, 0.0]}\n}\n")
+    csv = open(os.path.join(ROOT, "calib_data/ou2023/train40.csv")).read().splitlines()
+    put("calib_csv", "train_head.csv", "\n".join(csv[:12]) + "\n")
+    put("calib_csv", "points.csv", "xw,yw,zw,label\n0.5,1.0,0.12,a\n-1.25,2.0,0.12,b\n3,0,0\n")
+    put("calib_csv", "entry_lines.txt", "1.0 2.0 0.12\n0.5 0.5\nu\nq\n-3 4.5 0\n")
+    put("datagram", "binary_2.bin", datagram([(7, 1.5, -2.25), (12, 0.0, 3.0)]))
+    put("datagram", "binary_velocity.bin", datagram([(3, 0.25, 0.5)], velocity=True, part=1, parts=2))
+    put("datagram", "binary_future_record.bin", datagram([(9, 1.0, 1.0)], extra=8))
+    put("datagram", "binary_empty.bin", datagram([]))
+    put("datagram", "json_2.json",
+        '{"type":"ips.positions","version":1,"seq":7,"update":42,"part":0,"parts":1,'
+        '"t_capture_real_ns":1700000000000000000,"t_capture_mono_ns":123456789,"t_publish_real_ns":1700000000001000000,'
+        '"velocity":true,"markers":[{"id":7,"cameras":5,"x":1.5,"y":-2.25,"z":0.1,"yaw":1.57,"quality":2500,'
+        '"spread":0.004,"dt_us":0,"vx":0.5,"vy":-0.25,"vz":0}]}\n')
+    cookie = bytes(range(16))
+    def req(op=1, fmt=0, all_=True, lease=30, ids=(), psk=b""):
+        b = b"IPSQ" + bytes([1, op, fmt, 1 if all_ else 0]) + struct.pack("<HH", lease, len(ids)) + cookie
+        b += b"".join(struct.pack("<I", i) for i in ids)
+        if psk:
+            b += hmac.new(psk, b, hashlib.sha256).digest()
+        return b
+    put("subscription", "subscribe_all.bin", req())
+    put("subscription", "subscribe_ids_json.bin", req(fmt=1, all_=False, ids=(3, 7, 1000)))
+    put("subscription", "unsubscribe_psk.bin", req(op=2, lease=0, psk=b"lab secret"))
+    put("subscription", "subscribe_ids_psk.bin", req(all_=False, ids=(5,), psk=b"lab secret"))
+    put("subscription", "reply_challenge.bin", b"IPSA" + bytes([1, 1, 0, 0]) + struct.pack("<HH", 0, 0) + cookie)
+    put("subscription", "subnet.txt", "192.168.1.0/24")
+    for i, line in enumerate(["GET /", "GET /status.json", "GET /events", "GET /assets/app.js",
+                              "GET /camera/red.jpg", "GET /camera/white.json", "POST /", "GET /../etc/passwd"]):
+        put("web_request", "request_%d.txt" % i, line)
+    put("det_session", "session_two_cameras.txt",
+        "ips-record 1\n# comment\nconfig /etc/ipsd/ipsd.yaml\nfingerprint 0123456789abcdef\ndictionary DICT_4X4_100\n"
+        "seconds 12.5\ncamera red a.det\ncamera white b.det\n\0"
+        "# t_ns id x0 y0 x1 y1 x2 y2 x3 y3\n0 7 100.0 100.0 140.0 100.0 140.0 140.0 100.0 140.0\n"
+        "33333333 7 100.5 100.0 140.5 100.0 140.5 140.0 100.5 140.0\n66666666 12 10 10 20 10 20 20 10 20")
+    put("det_session", "det_only.txt", "0 3 1 2 3 4 5 6 7 8\n1000 3 1.5 2 3 4 5 6 7 8\n")
+    # Small JPEGs of a real photograph in the forms cameras and encoders produce (libturbojpeg
+    # through ctypes: no image tool needed).
+    photo = open(os.path.join(ROOT, "tests/data/real_photos/ubq_ceiling_fisheye.jpg"), "rb").read()
+    for name, (w, h, gray, samp, progressive, quality) in {
+            "gray_64x48.jpg": (64, 48, True, 3, False, 90),
+            "color420_80x60.jpg": (80, 60, False, 2, False, 85),
+            "color422_progressive_48x36.jpg": (48, 36, False, 1, True, 75),
+            "color444_32x32.jpg": (32, 32, False, 0, False, 95),
+            "odd_33x17.jpg": (33, 17, True, 3, True, 40)}.items():
+        put("jpeg", name, tj_small(photo, w, h, gray, samp, progressive, quality))
+
+if __name__ == "__main__":
+    main()
