@@ -2,7 +2,9 @@
 # The whole test suite, from a fresh Debian 12 machine:
 #   1. install the Debian packages (tools/setup.sh),
 #   2. build and test the release configuration,
-#   3. build and test again under AddressSanitizer + UBSan, with clang (for libFuzzer).
+#   3. build and test again under AddressSanitizer + UBSan, with clang: the fuzz targets (fuzz/)
+#      are libFuzzer programs there and each fuzzes for a few seconds (gcc's release build
+#      replays their corpora once).
 # Usage: bash tools/test.sh            (both configurations)
 #        IPS_TEST_CONFIGS=release bash tools/test.sh
 set -euo pipefail
@@ -15,12 +17,12 @@ configs=${IPS_TEST_CONFIGS:-"release asan"}
 for config in $configs; do
   build="build/$config"
   case "$config" in
-    release) flags=(-DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF -DIPS_BUILD_TESTS=ON) ;;
+    release) flags=(-DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF -DIPS_BUILD_TESTS=ON -DIPS_FUZZ=ON) ;;
     # -O1 keeps image-heavy tests quick under the sanitizers without hiding errors; -g1 (line
     # tables) is all a sanitizer report needs and compiles faster than full debug info.
     asan)    flags=(-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14
                     -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-g1 -O1" "-DCMAKE_C_FLAGS_DEBUG=-g1 -O1"
-                    -DIPS_SANITIZE=ON -DIPS_BUILD_TESTS=ON -DIPS_BUILD_BENCHMARKS=OFF) ;;
+                    -DIPS_SANITIZE=ON -DIPS_BUILD_TESTS=ON -DIPS_BUILD_BENCHMARKS=OFF -DIPS_FUZZ=ON) ;;
     *) echo "test.sh: unknown configuration '$config' (release|asan)" >&2; exit 2 ;;
   esac
   echo "=== $config: configure + build ($build) ==="

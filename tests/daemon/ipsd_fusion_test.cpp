@@ -18,6 +18,7 @@
 #include "plane_model.h"
 #include "process_util.h"
 #include "published_scene.h"
+#include "release_only.h"
 
 namespace ips {
 namespace {
@@ -230,6 +231,8 @@ TEST_F(IpsdFusionTest, FixedRateOutputPredictsEveryMarkerToTheTick) {
   std::printf("[ ipsd    ] fixed rate 20 Hz: predicted 2D error p95 %.1f mm at 1 m/s on 0.6-0.7 m circles (%zu), "
               "%.1f mm at 0.3 m/s or static (%zu)\n",
               1e3 * p95(fast), fast.size(), 1e3 * p95(slow), slow.size());
+  // Under the sanitizers (several times slower) a loaded machine left 3 records in 5 s: no p95.
+  if (ips::test::kSanitized) return;
   if (!fast.empty()) {
     EXPECT_LE(p95(fast), 0.08);  // linear prediction ~0.1 s ahead on a curve: cm-level by nature (33-43 mm seen)
   }
