@@ -279,11 +279,12 @@ int main(int argc, char** argv) {
   auto sample = [&] {
     Sample s{now_ns(), proc_sample(pid), load_average_1m(), monitor.totals().datagrams};
     const auto doc = nlohmann::json::parse(ips::support::read_unix_socket(status_socket), nullptr, false);
-    if (doc.is_object() && doc.contains("cameras"))
-      for (const auto& c : doc["cameras"]) {
-        s.drops += c.value("drops", 0ULL);
-        s.corrupt += c.value("corrupt", 0ULL);
-      }
+    // Walked by hand: json::value() on a const document trips GCC's -Wnull-dereference.
+    if (doc.is_object())
+      if (const auto cams = doc.find("cameras"); cams != doc.end() && cams->is_array())
+        for (const auto& c : *cams)
+          for (const auto& [key, total] : {std::pair{"drops", &s.drops}, std::pair{"corrupt", &s.corrupt}})
+            if (const auto v = c.find(key); v != c.end() && v->is_number_unsigned()) *total += v->get<std::uint64_t>();
     return s;
   };
   std::atomic<bool> sampling{true};
