@@ -33,6 +33,8 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <mutex>
+#include <tuple>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -275,16 +277,31 @@ int main(int argc, char** argv) {
 
   const std::int64_t t0 = now_ns();
   report.start(t0);
-  // One sample: the process, the load, the stream, the daemon's own counters.
+  // One sample: the process, the load, the stream, the daemon's own counters. The daemon's
+  // per-camera counters restart with the camera threads (a reload changing the cameras), so
+  // they are accumulated here: an increase adds the difference, a decrease the new value.
+  std::mutex counters_mutex;
+  std::vector<std::uint64_t> raw_drops(kNCams, 0), raw_corrupt(kNCams, 0), sum_drops(kNCams, 0), sum_corrupt(kNCams, 0);
   auto sample = [&] {
-    Sample s{now_ns(), proc_sample(pid), load_average_1m(), monitor.totals().datagrams};
+    Sample s;
+    s.t_ns = now_ns();
+    s.proc = proc_sample(pid);
+    s.load = load_average_1m();
+    s.datagrams = monitor.totals().datagrams;
     const auto doc = nlohmann::json::parse(ips::support::read_unix_socket(status_socket), nullptr, false);
+    std::lock_guard lock(counters_mutex);
     // Walked by hand: json::value() on a const document trips GCC's -Wnull-dereference.
     if (doc.is_object())
       if (const auto cams = doc.find("cameras"); cams != doc.end() && cams->is_array())
-        for (const auto& c : *cams)
-          for (const auto& [key, total] : {std::pair{"drops", &s.drops}, std::pair{"corrupt", &s.corrupt}})
-            if (const auto v = c.find(key); v != c.end() && v->is_number_unsigned()) *total += v->get<std::uint64_t>();
+        for (std::size_t k = 0; k < cams->size() && k < raw_drops.size(); ++k)
+          for (auto [key, raw, sum] : {std::tuple{"drops", &raw_drops[k], &sum_drops[k]}, std::tuple{"corrupt", &raw_corrupt[k], &sum_corrupt[k]}})
+            if (const auto v = (*cams)[k].find(key); v != (*cams)[k].end() && v->is_number_unsigned()) {
+              const auto now = v->get<std::uint64_t>();
+              *sum += now >= *raw ? now - *raw : now;
+              *raw = now;
+            }
+    s.camera_drops = sum_drops;
+    for (int k = 0; k < kNCams; ++k) s.drops += sum_drops[static_cast<std::size_t>(k)], s.corrupt += sum_corrupt[static_cast<std::size_t>(k)];
     return s;
   };
   std::atomic<bool> sampling{true};

@@ -34,8 +34,10 @@ struct Sample {
   ProcSample proc;
   double load = NAN;
   std::uint64_t datagrams = 0;
-  /// From the daemon's status: frames the emulated driver dropped because the daemon had no
-  /// buffer queued (it did not keep up: CPU starvation), summed over the cameras; corrupt frames.
+  /// From the daemon's status, accumulated over camera restarts (which reset the daemon's
+  /// counters): frames the emulated driver dropped because the daemon had no buffer queued
+  /// (it did not keep up: CPU starvation), per camera and summed; corrupt frames counted.
+  std::vector<std::uint64_t> camera_drops;
   std::uint64_t drops = 0, corrupt = 0;
 };
 
@@ -64,7 +66,7 @@ class Report {
     final_status_ = final_status;
     sanitizer_lines_ = sanitizer_lines;
     for (const auto& g : gaps) {
-      GapRow row{g, "", false, load_at(g.to_ns), drops_between(g.from_ns, g.to_ns)};
+      GapRow row{g, "", false, load_at(g.to_ns), drops_between(g.camera, g.from_ns, g.to_ns)};
       // The fault under way (or the last one before) names the context of any gap.
       for (const auto& f : faults_) {
         const std::int64_t until = f.recovered_ns ? f.recovered_ns : t_end_;
@@ -127,8 +129,10 @@ class Report {
     j["gaps"] = json::array();
     for (const auto& g : gaps_)
       j["gaps"].push_back({{"camera", g.gap.camera}, {"at_s", rel(g.gap.from_ns)}, {"length_s", 1e-9 * static_cast<double>(g.gap.to_ns - g.gap.from_ns)},
-                           {"excused", g.excused}, {"during", g.context}, {"load1", g.load}, {"driver_drops_around", g.drops}});
+                           {"excused", g.excused}, {"during", g.context}, {"load1", g.load}, {"camera_driver_drops_around", g.drops}});
     j["unexcused_gaps"] = unexcused_gaps();
+    j["unexcused_gaps_with_driver_drops"] =
+        std::count_if(gaps_.begin(), gaps_.end(), [](const GapRow& g) { return !g.excused && g.drops > 0; });
     j["watchdog"] = {{"pings", notify_.pings}, {"missed", notify_.missed},
                      {"widest_interval_s", 1e-9 * static_cast<double>(notify_.widest_ping_interval_ns)},
                      {"ready", notify_.ready}, {"reloading", notify_.reloading}, {"stopping", notify_.stopping}};
@@ -168,8 +172,11 @@ class Report {
     add("stream: %llu datagrams, %llu lost (sequence), %llu malformed, widest silence of the whole stream %.2f s\n",
         static_cast<unsigned long long>(totals_.datagrams), static_cast<unsigned long long>(totals_.sequence_lost),
         static_cast<unsigned long long>(totals_.malformed), 1e-9 * static_cast<double>(totals_.widest_silence_ns));
-    add("camera silences > %.1f s: %d excused (camera unplugged / restarting), %d NOT excused\n", gap_s_,
-        static_cast<int>(gaps_.size()) - unexcused_gaps(), unexcused_gaps());
+    const int starved = static_cast<int>(
+        std::count_if(gaps_.begin(), gaps_.end(), [](const GapRow& g) { return !g.excused && g.drops > 0; }));
+    add("camera silences > %.1f s: %d excused (camera unplugged / restarting), %d NOT excused, of which %d with that\n"
+        "camera's driver drops around them (frames lost because the daemon had no buffer queued: it did not get the CPU)\n",
+        gap_s_, static_cast<int>(gaps_.size()) - unexcused_gaps(), unexcused_gaps(), starved);
     t += "\n| minute | resident MiB | threads | fds | load (1 min) | ipsd CPU % (last 10 s) | driver drops (total) |\n|---|---|---|---|---|---|---|\n";
     for (const std::size_t i : per_minute()) {
       const Sample& s = samples_[i];
@@ -199,7 +206,7 @@ class Report {
           f.recovered_ns ? 1e-9 * static_cast<double>(f.recovered_ns - f.end_ns) : NAN, load_at(f.start_ns), f.check.c_str());
     if (!gaps_.empty()) t += "\ncamera silences:\n";
     for (const auto& g : gaps_)
-      add("  %7.1f s  camera %d silent %.2f s  %s  load %.2f  driver drops around it %llu  (during/after: %s)\n",
+      add("  %7.1f s  camera %d silent %.2f s  %s  load %.2f  its driver drops in the samples around it %llu  (during/after: %s)\n",
           rel(g.gap.from_ns), g.gap.camera, 1e-9 * static_cast<double>(g.gap.to_ns - g.gap.from_ns),
           g.excused ? "excused" : "NOT EXCUSED", g.load, static_cast<unsigned long long>(g.drops), g.context.c_str());
     return t;
@@ -226,19 +233,17 @@ class Report {
                         static_cast<double>(::sysconf(_SC_CLK_TCK)) / dt
                   : NAN;
   }
-  // Driver drops (the daemon not keeping up) in the 10-s samples around [from, to].
-  std::uint64_t drops_between(std::int64_t from, std::int64_t to) const {
+  // Camera c's driver drops (the daemon not keeping up) in the 10-s samples around [from, to].
+  std::uint64_t drops_between(int c, std::int64_t from, std::int64_t to) const {
+    const auto k = static_cast<std::size_t>(c);
+    auto of = [&](const Sample& s) { return k < s.camera_drops.size() ? s.camera_drops[k] : 0; };
     std::uint64_t before = 0, after = 0;
-    bool have_before = false;
     for (const auto& s : samples_) {
-      if (s.t_ns <= from) before = s.drops, have_before = true;
-      if (s.t_ns >= to) {
-        after = s.drops;
-        break;
-      }
-      after = s.drops;
+      if (s.t_ns <= from) before = of(s);
+      after = of(s);
+      if (s.t_ns >= to) break;
     }
-    return have_before && after >= before ? after - before : 0;
+    return after >= before ? after - before : 0;
   }
   int unexcused_gaps() const {
     return static_cast<int>(std::count_if(gaps_.begin(), gaps_.end(), [](const GapRow& g) { return !g.excused; }));
