@@ -30,7 +30,13 @@ using support::UdpReceiver;
 using support::wait_exit;
 
 // Sanitizer builds run the daemon (rendering, detection) several times slower: wait longer.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+// GCC defines __SANITIZE_ADDRESS__; clang (14) only answers __has_feature.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define IPS_TEST_SANITIZED 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__) || defined(IPS_TEST_SANITIZED)
 constexpr double kTimeScale = 6.0;
 #else
 constexpr double kTimeScale = 1.0;
