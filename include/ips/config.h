@@ -56,8 +56,9 @@ struct CameraConfig {
   std::filesystem::path scene;  ///< synthetic: the simulator's scene file; required for synthetic
   std::string scene_camera;     ///< synthetic: camera of the scene to render; default: `name`
   /// synthetic: frame k is delivered this long after its capture time, s (like MJPEG over USB);
-  /// NaN = one frame period.
-  double transport_delay_s = std::nan("");
+  /// unset = one frame period. (An optional, not a NaN: NaN != NaN made every reload see
+  /// "changed cameras" and restart the camera threads.)
+  std::optional<double> transport_delay_s;
   /// synthetic: frame k is captured at scene time phase + k / fps, s (unsynchronised cameras)
   double phase_s = 0.0;
   // every source

@@ -120,9 +120,12 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
     r.fail(n["timestamp_offset"], r.key("timestamp_offset"), "must be within [-1, 1] seconds");
   r.get_number("phase", c.phase_s, 0.0, false);
   if (c.phase_s >= 1.0) r.fail(n["phase"], r.key("phase"), "must be < 1 second");
-  if (r.has("transport_delay")) r.get_number("transport_delay", c.transport_delay_s, 0.0, false);
-  if (r.has("transport_delay") && c.transport_delay_s > 1.0)
-    r.fail(n["transport_delay"], r.key("transport_delay"), "must be <= 1 second");
+  if (r.has("transport_delay")) {
+    double delay = 0.0;
+    r.get_number("transport_delay", delay, 0.0, false);
+    if (delay > 1.0) r.fail(n["transport_delay"], r.key("transport_delay"), "must be <= 1 second");
+    c.transport_delay_s = delay;
+  }
   r.finish();
   return c;
 }

@@ -41,7 +41,7 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
       o.epoch_mono_ns = context.synthetic_epoch_mono_ns;
       o.phase_ns = std::llround(c.phase_s * 1e9);
       o.render_ahead = true;  // the daemon's cost is measured, not the renderer's
-      if (!std::isnan(c.transport_delay_s)) o.transport_delay_ns = std::llround(c.transport_delay_s * 1e9);
+      if (c.transport_delay_s) o.transport_delay_ns = std::llround(*c.transport_delay_s * 1e9);
       return [scene, o] { return std::make_unique<sim::SyntheticSource>(scene, o); };
     }
     case SourceKind::kV4l2: {
