@@ -32,7 +32,7 @@ constexpr double kLength = 0.075;
 
 // Six 1080p frames render and search in ~2 s in release; under the sanitizers (~10x slower)
 // two frames keep the check cheap.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#if defined(IPS_SANITIZED)
 constexpr int kFrames = 2;
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
