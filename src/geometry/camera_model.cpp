@@ -264,6 +264,19 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
       if (n > 1 && first != std::string::npos && line[first] == '%')
         throw InputError(where + ":" + std::to_string(n) + ": a '%' directive after the first line (not an OpenCV calibration file)");
     }
+    // It also loops forever on other garbage (fuzz_intrinsics): it only gets text that is one
+    // well-formed YAML mapping to yaml-cpp after the directive line, as every file OpenCV
+    // writes is. (A guard, not a proof: OpenCV's reader is still the one that reads the file.)
+    const auto body = s.find('\n');
+    std::vector<YAML::Node> docs;
+    try {
+      docs = YAML::LoadAll(body == std::string::npos ? std::string() : s.substr(body + 1));
+    } catch (const YAML::Exception& e) {
+      throw InputError(where + ":" + std::to_string(e.mark.line + 2) + ": YAML error: " + e.msg +
+                       " (not an OpenCV calibration file)");
+    }
+    if (docs.size() != 1 || !docs[0].IsMap())
+      throw InputError(where + ": expected one YAML mapping after %YAML:1.0 (not an OpenCV calibration file)");
   }
   if (opencv_form) return opencv();
   YAML::Node root;

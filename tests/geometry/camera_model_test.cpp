@@ -261,4 +261,13 @@ TEST(CameraModel, OpenCVFilesOpenCVCannotNavigateAreInputErrors) {
   }
 }
 
+// OpenCV 4.6's YAML reader loops forever on this fuzz_intrinsics find (two YAML documents of
+// garbage after the directive): refused before OpenCV reads it.
+TEST(CameraModel, GarbageThatHangsOpenCVsYamlReaderIsAnInputError) {
+  const std::string path = std::string(IPS_SOURCE_DIR) + "/tests/fuzz/intrinsics/opencv_yaml_reader_hangs.yaml";
+  const std::string msg = expect_input_error(path);
+  EXPECT_NE(msg.find("not an OpenCV calibration file"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("opencv_yaml_reader_hangs.yaml"), std::string::npos) << msg;
+}
+
 }  // namespace
