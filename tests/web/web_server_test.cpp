@@ -271,7 +271,10 @@ TEST_F(WebServerTest, StreamsRateLimitedUpdatesWithBoundedQueuesAndSurvivesAbrup
     const auto e = good.next(500);
     if (e.first != "markers") continue;
     const auto j = nlohmann::json::parse(e.second);
-    ASSERT_EQ(j["markers"].size(), 1u);
+    // A client that connected before the first update may first get that (empty) state.
+    if (j["markers"].empty() && markers == 0) continue;
+    EXPECT_EQ(j["markers"].size(), 1u);  // not ASSERT: the fusion thread must still be joined
+    if (j["markers"].size() != 1u) continue;
     EXPECT_EQ(j["markers"][0]["id"], 5);
     EXPECT_EQ(j["markers"][0]["cameras"], 3);
     EXPECT_GE(j["markers"][0]["x"].get<double>(), last_x);  // the newest state, in order
