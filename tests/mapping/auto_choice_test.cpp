@@ -108,6 +108,7 @@ TEST_F(AutoChoice, PublishedPairs) {
 // On simulated pairs (tape noise 5 mm) judged against exact positions, with the heights known
 // as in the daemon: the default choice (plane) beats the choice made without heights.
 TEST_F(AutoChoice, SimulatedPairsTheChoiceServesTheDaemon) {
+  IPS_RELEASE_ONLY("CrossValidation.* (the choice) and IpsdTest.* (the daemon on a model file)");
   const std::string scene = std::string(IPS_CONFIG_DIR) + "/scenes/ou2023.yaml";
   const std::string train = (dir_ / "train.csv").string(), test = (dir_ / "test.csv").string();
   std::string out;
