@@ -6,38 +6,19 @@
 #include <gtest/gtest.h>
 
 #include "ips/error.h"
+#include "config_scratch.h"
 
 namespace ips {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A scratch directory with the files a config refers to (relative paths resolve against it).
-class ConfigTest : public ::testing::Test {
+class ConfigTest : public test::ConfigScratch {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("ips_config_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-    fs::copy_file(fs::path(IPS_TEST_DATA_DIR) / "ou2023/intrinsics_red.yaml", dir_ / "red.yaml",
-                  fs::copy_options::overwrite_existing);
-    std::ofstream(dir_ / "model.json") << "{}";
-    std::ofstream(dir_ / "scene.yaml") << "{}";
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  DaemonConfig parse(const std::string& text) { return parse_config(text, dir_ / "ipsd.yaml"); }
-
-  // Expects InputError whose message contains every fragment.
+  DaemonConfig parse(const std::string& text) { return parse_text(text); }
   void expect_error(const std::string& text, std::initializer_list<std::string> fragments) {
-    try {
-      (void)parse(text);
-      ADD_FAILURE() << "accepted:\n" << text;
-    } catch (const InputError& e) {
-      for (const auto& f : fragments) EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what() << "\n  missing: " << f;
-    }
+    expect_refused(text, fragments);
   }
-
-  fs::path dir_;
 };
 
 const char* kMinimal = R"(cameras:

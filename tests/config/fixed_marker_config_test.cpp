@@ -8,34 +8,17 @@
 
 #include "ips/config.h"
 #include "ips/error.h"
+#include "config_scratch.h"
 
 namespace ips {
 namespace {
 
 namespace fs = std::filesystem;
 
-class FixedMarkerConfigTest : public ::testing::Test {
+class FixedMarkerConfigTest : public test::ConfigScratch {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("ips_fixed_config_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-    std::ofstream(dir_ / "model.json") << "{}";
-    std::ofstream(dir_ / "scene.yaml") << "{}";
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  DaemonConfig parse(const std::string& markers) {
-    return parse_config("cameras:\n  - {name: red, source: synthetic, scene: scene.yaml}\nmodel_file: model.json\n" + markers,
-                        dir_ / "ipsd.yaml");
-  }
-  std::string error_of(const std::string& markers) {
-    try {
-      (void)parse(markers);
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "accepted";
-  }
-  fs::path dir_;
+  DaemonConfig parse(const std::string& markers) { return parse_text(test::kSyntheticRedConfig + markers); }
+  std::string error_of(const std::string& markers) { return error_of_text(test::kSyntheticRedConfig + markers); }
 };
 
 TEST_F(FixedMarkerConfigTest, FixedMarkersAreKnownHeightAndUnpublishedByDefault) {

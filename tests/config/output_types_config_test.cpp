@@ -9,37 +9,21 @@
 
 #include "ips/config.h"
 #include "ips/error.h"
+#include "config_scratch.h"
 
 namespace ips {
 namespace {
 
 namespace fs = std::filesystem;
 
-class MavlinkConfigTest : public ::testing::Test {
+class MavlinkConfigTest : public test::ConfigScratch {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("ips_mavlink_config_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-    std::ofstream(dir_ / "model.json") << "{}";
-    std::ofstream(dir_ / "scene.yaml") << "{}";
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  DaemonConfig parse(const std::string& outputs) {
-    return parse_config(base_ + outputs, dir_ / "ipsd.yaml", ConfigChecks{false, true});
-  }
+  DaemonConfig parse(const std::string& outputs) { return parse_text(base_ + outputs, ConfigChecks{false, true}); }
   void expect_error(const std::string& outputs, const std::string& fragment) {
-    try {
-      (void)parse(outputs);
-      ADD_FAILURE() << "accepted:\n" << outputs;
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what() << "\n  missing: " << fragment;
-    }
+    expect_refused(base_ + outputs, {fragment}, ConfigChecks{false, true});
   }
 
-  fs::path dir_;
-  std::string base_ = "cameras:\n  - {name: red, source: synthetic, scene: scene.yaml}\nmodel_file: model.json\n"
-                      "fusion: {kalman: {reset_after: 0.8}}\noutputs:\n";
+  std::string base_ = test::kSyntheticRedConfig + "fusion: {kalman: {reset_after: 0.8}}\noutputs:\n";
 };
 
 TEST_F(MavlinkConfigTest, EveryKeyIsReadAndDefaultsAreTheDocumentedOnes) {

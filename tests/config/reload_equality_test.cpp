@@ -8,25 +8,16 @@
 #include <gtest/gtest.h>
 
 #include "ips/config.h"
+#include "config_scratch.h"
 
 namespace ips {
 namespace {
 
 namespace fs = std::filesystem;
 
-class ReloadEquality : public ::testing::Test {
+class ReloadEquality : public test::ConfigScratch {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("ips_reload_eq_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-    fs::copy_file(fs::path(IPS_TEST_DATA_DIR) / "ou2023/intrinsics_red.yaml", dir_ / "red.yaml",
-                  fs::copy_options::overwrite_existing);
-    std::ofstream(dir_ / "model.json") << "{}";
-    std::ofstream(dir_ / "scene.yaml") << "{}";
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  DaemonConfig parse(const std::string& text) { return parse_config(text, dir_ / "ipsd.yaml"); }
-  fs::path dir_;
+  DaemonConfig parse(const std::string& text) { return parse_text(text); }
 };
 
 std::string config(const std::string& cameras, double window) {
