@@ -81,6 +81,8 @@ class DetectionTracker {
     std::uint64_t frames = 0;         ///< frames processed
     std::uint64_t full_searches = 0;  ///< of which searched in full (periodic or fallback)
     std::uint64_t fallbacks = 0;      ///< of which because a tracked marker left its ROI
+    std::uint64_t predicted = 0;      ///< markers found from their predicted corners alone
+    std::uint64_t roi_searches = 0;   ///< ROIs searched (a tracked marker not found so)
   };
   const Counters& counters() const { return counters_; }
 
@@ -91,6 +93,8 @@ class DetectionTracker {
     std::int64_t frame = 0;  ///< frame index of the last sighting
   };
   void update(const std::vector<MarkerDetection>& found, bool full);
+  MarkerDetection predicted(const Track& t) const;  ///< its corners in the next frame
+  cv::Rect roi_of(const Track& t, cv::Size image) const;  ///< where to search for it
   double reach(const Track& t) const;
 
   TrackerOptions options_;
