@@ -7,17 +7,19 @@
 //     search on the same frame), also when nothing is tracked (an empty view costs a full
 //     search per period, not per frame);
 //   - on the other frames each tracked marker's corners are predicted (last corners + image
-//     velocity per frame, measured between its last two sightings) and the detector runs only
-//     in a rectangle a few marker sides around the prediction, with the same candidate search,
-//     full-resolution corner refinement and verification as the full search (the ROI entry
-//     point of Detector), so a tracked marker has the corners the full search would give it;
+//     velocity per frame, measured between its last two sightings) and refined from there
+//     by the full search's edge refinement, read and verified as the full search does
+//     (Detector::refine_known, no candidate search); only where that fails does the detector
+//     run in a rectangle a few marker sides around the prediction, with the same candidate
+//     search, refinement and verification as the full search (the ROI entry point of
+//     Detector); either way a tracked marker has the corners the full search would give it;
 //   - a tracked marker not found in its ROI (fast motion, occlusion, left the view) makes the
 //     same frame fall back to a full search at once; markers the full search does not find
 //     either are forgotten.
 // Guarantee: a marker that becomes findable (enters the view, is uncovered) while others are
 // tracked is acquired at the latest on the next full search: within `full_search_period`
-// frames of the first frame it appears in (counting that frame). A marker that appears inside
-// another marker's ROI is acquired at once.
+// frames of the first frame it appears in (counting that frame); sooner if it appears inside
+// an ROI that is searched.
 #pragma once
 
 #include <cstdint>
