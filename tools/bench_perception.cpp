@@ -83,7 +83,34 @@ struct Result {
   Stats detect_threaded;  // default detectMarkers on OpenCV's threads, wall (reference only)
   int expected = 0, found = 0, extra = 0;
   Stats corner_err;
+  std::vector<std::vector<ips::MarkerDetection>> found_per_frame;  // tracked cases only
 };
+
+// Tracked against full search on the same frames (#12): markers found by one and not the
+// other, and the largest distance between their corners of the same marker.
+struct Agreement {
+  int differing = 0;
+  double max_corner_diff = 0;
+};
+Agreement agreement(const Result& a, const Result& b) {
+  Agreement g;
+  for (std::size_t f = 0; f < a.found_per_frame.size() && f < b.found_per_frame.size(); ++f) {
+    const auto& fa = a.found_per_frame[f];
+    const auto& fb = b.found_per_frame[f];
+    g.differing += static_cast<int>(fa.size() > fb.size() ? fa.size() - fb.size() : fb.size() - fa.size());
+    for (const auto& d : fa) {
+      const auto it = std::find_if(fb.begin(), fb.end(), [&](const auto& e) { return e.id == d.id; });
+      if (it == fb.end()) {
+        ++g.differing;
+        continue;
+      }
+      for (std::size_t k = 0; k < 4; ++k)
+        g.max_corner_diff = std::max(g.max_corner_diff, std::hypot(d.corners_px[k].x - it->corners_px[k].x,
+                                                                   d.corners_px[k].y - it->corners_px[k].y));
+    }
+  }
+  return g;
+}
 
 void score(const std::vector<ips::MarkerDetection>& found,
            const std::vector<ips::sim::MarkerTruth>& truth, Result& r) {
@@ -238,6 +265,7 @@ Result ours_tracked(const Case& c, const ips::CameraModel& cam, double length, S
     r.locate.add(t_loc);
     r.total.add(t_dec + t_det + t_loc);
     score(found, c.truth[f], r);
+    r.found_per_frame.push_back(found);
   }
   counters = tracker.counters();
   return r;
@@ -294,6 +322,7 @@ Result ours_full(const Case& c, const ips::CameraModel& cam, double length) {
     r.locate.add(t_loc);
     r.total.add(t_dec + t_det + t_loc);
     score(found, c.truth[f], r);
+    r.found_per_frame.push_back(found);
   }
   return r;
 }
@@ -434,6 +463,12 @@ int main(int argc, char** argv) {
         label, tracked_frames, static_cast<unsigned long long>(counters.full_searches),
         static_cast<unsigned long long>(counters.fallbacks), partial.pct(0.5), partial.pct(0.95), mean(tracked.total),
         mean(full.total), mean(ref.total), ref.total.pct(0.5) / tracked.total.pct(0.5));
+    const Agreement g = agreement(tracked, full);
+    std::printf(
+        "%-7s           | tracked vs full search on the same frames: %d markers differ, corners within %.4f px; "
+        "%llu markers found from their predicted corners alone, %llu ROIs searched\n",
+        label, g.differing, g.max_corner_diff, static_cast<unsigned long long>(counters.predicted),
+        static_cast<unsigned long long>(counters.roi_searches));
     skip_costs(c, label);
   }
   return 0;

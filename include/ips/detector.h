@@ -119,6 +119,19 @@ class Detector {
   std::vector<MarkerDetection> detect(const cv::Mat& gray, const cv::Rect& roi,
                                       const CameraModel* camera = nullptr);
 
+  /// Tracking's shortcut for a marker known from the previous frame (DetectionTracker): no
+  /// candidate search; `predicted` (its id and corners in ArUco order, predicted for this
+  /// image) is refined by the full search's edge refinement (its two passes), and the result
+  /// is kept only if it reads as `predicted.id` in the same orientation (the full-resolution
+  /// decoding) and passes the full search's verification: a marker the full search would
+  /// refuse is refused here too. False (the caller then searches around it) when the
+  /// prediction is too far off for the edge profiles (~3 px across an edge, 4 px per corner
+  /// and pass), the refinement is not kEdges, or the marker is not read. Reads only pixels
+  /// within one cell + 4 px of the predicted and refined corners, and only inside `valid`
+  /// (false if they leave it): a partial decode is enough.
+  bool refine_known(const cv::Mat& gray, const MarkerDetection& predicted, const cv::Rect& valid,
+                    const CameraModel* camera, MarkerDetection& out);
+
   const DetectorOptions& options() const;
 
  private:

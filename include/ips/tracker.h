@@ -7,17 +7,19 @@
 //     search on the same frame), also when nothing is tracked (an empty view costs a full
 //     search per period, not per frame);
 //   - on the other frames each tracked marker's corners are predicted (last corners + image
-//     velocity per frame, measured between its last two sightings) and the detector runs only
-//     in a rectangle a few marker sides around the prediction, with the same candidate search,
-//     full-resolution corner refinement and verification as the full search (the ROI entry
-//     point of Detector), so a tracked marker has the corners the full search would give it;
+//     velocity per frame, measured between its last two sightings) and refined from there
+//     by the full search's edge refinement, read and verified as the full search does
+//     (Detector::refine_known, no candidate search); only where that fails does the detector
+//     run in a rectangle a few marker sides around the prediction, with the same candidate
+//     search, refinement and verification as the full search (the ROI entry point of
+//     Detector); either way a tracked marker has the corners the full search would give it;
 //   - a tracked marker not found in its ROI (fast motion, occlusion, left the view) makes the
 //     same frame fall back to a full search at once; markers the full search does not find
 //     either are forgotten.
 // Guarantee: a marker that becomes findable (enters the view, is uncovered) while others are
 // tracked is acquired at the latest on the next full search: within `full_search_period`
-// frames of the first frame it appears in (counting that frame). A marker that appears inside
-// another marker's ROI is acquired at once.
+// frames of the first frame it appears in (counting that frame); sooner if it appears inside
+// an ROI that is searched.
 #pragma once
 
 #include <cstdint>
@@ -81,6 +83,8 @@ class DetectionTracker {
     std::uint64_t frames = 0;         ///< frames processed
     std::uint64_t full_searches = 0;  ///< of which searched in full (periodic or fallback)
     std::uint64_t fallbacks = 0;      ///< of which because a tracked marker left its ROI
+    std::uint64_t predicted = 0;      ///< markers found from their predicted corners alone
+    std::uint64_t roi_searches = 0;   ///< ROIs searched (a tracked marker not found so)
   };
   const Counters& counters() const { return counters_; }
 
@@ -91,6 +95,8 @@ class DetectionTracker {
     std::int64_t frame = 0;  ///< frame index of the last sighting
   };
   void update(const std::vector<MarkerDetection>& found, bool full);
+  MarkerDetection predicted(const Track& t) const;  ///< its corners in the next frame
+  cv::Rect roi_of(const Track& t, cv::Size image) const;  ///< where to search for it
   double reach(const Track& t) const;
 
   TrackerOptions options_;

@@ -58,28 +58,41 @@ void DetectionTracker::reset() {
   force_full_ = true;
 }
 
+MarkerDetection DetectionTracker::predicted(const Track& t) const {
+  const auto elapsed = static_cast<double>(frame_ - t.frame);
+  MarkerDetection p = t.last;
+  for (auto& c : p.corners_px) {
+    c.x += t.velocity.x * elapsed;
+    c.y += t.velocity.y * elapsed;
+  }
+  return p;
+}
+
+cv::Rect DetectionTracker::roi_of(const Track& t, cv::Size image) const {
+  const auto elapsed = static_cast<double>(frame_ - t.frame);
+  const double dx = t.velocity.x * elapsed, dy = t.velocity.y * elapsed;
+  double x0 = std::numeric_limits<double>::max(), y0 = x0, x1 = -x0, y1 = -x0;
+  for (const auto& c : predicted(t).corners_px) {
+    x0 = std::min(x0, c.x);
+    x1 = std::max(x1, c.x);
+    y0 = std::min(y0, c.y);
+    y1 = std::max(y1, c.y);
+  }
+  // The marker's own size (it may turn, tilt, grow) plus the prediction's uncertainty:
+  // up to half the predicted motion again (acceleration, a velocity measured on noise).
+  const double m = options_.roi_margin * side(t.last) + 0.5 * std::hypot(dx, dy) + kMinMarginPx;
+  cv::Rect r(cv::Point(floor_to(x0 - m, kAlign), floor_to(y0 - m, kAlign)),
+             cv::Point(ceil_to(x1 + m, kAlign), ceil_to(y1 + m, kAlign)));
+  return r & cv::Rect(0, 0, image.width, image.height);
+}
+
 TrackPlan DetectionTracker::plan(cv::Size image) const {
   TrackPlan p;
   if (!options_.enabled || force_full_ || (frame_ + phase_) % options_.full_search_period == 0)
     return p;
   p.full = false;
-  const cv::Rect whole(0, 0, image.width, image.height);
   for (const auto& t : tracks_) {
-    const auto elapsed = static_cast<double>(frame_ - t.frame);
-    const double dx = t.velocity.x * elapsed, dy = t.velocity.y * elapsed;
-    double x0 = std::numeric_limits<double>::max(), y0 = x0, x1 = -x0, y1 = -x0;
-    for (const auto& c : t.last.corners_px) {
-      x0 = std::min(x0, c.x + dx);
-      x1 = std::max(x1, c.x + dx);
-      y0 = std::min(y0, c.y + dy);
-      y1 = std::max(y1, c.y + dy);
-    }
-    // The marker's own size (it may turn, tilt, grow) plus the prediction's uncertainty:
-    // up to half the predicted motion again (acceleration, a velocity measured on noise).
-    const double m = options_.roi_margin * side(t.last) + 0.5 * std::hypot(dx, dy) + kMinMarginPx;
-    cv::Rect r(cv::Point(floor_to(x0 - m, kAlign), floor_to(y0 - m, kAlign)),
-               cv::Point(ceil_to(x1 + m, kAlign), ceil_to(y1 + m, kAlign)));
-    r &= whole;
+    const cv::Rect r = roi_of(t, image);
     if (r.width >= 8 && r.height >= 8) p.rois.push_back(r);
   }
   // Two ROIs become their bounding box when that is no larger than the two together (a
@@ -109,16 +122,42 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
     update(out, true);
     return true;
   }
-  for (const auto& r : plan.rois) {
-    for (const auto& d : detector.detect(gray, r, camera)) {
-      // Overlapping ROIs: the same marker (same id, same place) found twice is kept once.
-      const Point2 c = centre(d);
-      const bool seen = std::any_of(out.begin(), out.end(), [&](const MarkerDetection& o) {
-        const Point2 co = centre(o);
-        return o.id == d.id && std::hypot(co.x - c.x, co.y - c.y) < 0.25 * side(d);
-      });
-      if (!seen) out.push_back(d);
+  // Overlapping ROIs: the same marker (same id, same place) found twice is kept once.
+  auto add = [&](const MarkerDetection& d) {
+    const Point2 c = centre(d);
+    const bool seen = std::any_of(out.begin(), out.end(), [&](const MarkerDetection& o) {
+      const Point2 co = centre(o);
+      return o.id == d.id && std::hypot(co.x - c.x, co.y - c.y) < 0.25 * side(d);
+    });
+    if (!seen) out.push_back(d);
+  };
+  // Each tracked marker first from its predicted corners alone (Detector::refine_known: the
+  // full search's refinement and verification without its candidate search); an ROI is
+  // searched only where that failed (the prediction too far off: a bounce, a jump, a
+  // marker turning fast, an occlusion). A marker that appears in the ROI of a marker found
+  // so waits for the next full search, as one appearing elsewhere does.
+  const cv::Size image(gray.cols, gray.rows);
+  std::vector<bool> search(plan.rois.size(), false);
+  for (const auto& t : tracks_) {
+    const cv::Rect own = roi_of(t, image);
+    const MarkerDetection p = predicted(t);
+    // The plan's ROI holding this marker's own (merged ROIs hold several); pixels outside
+    // the plan's ROIs may not be decoded.
+    const auto holder = std::find_if(plan.rois.begin(), plan.rois.end(),
+                                     [&](const cv::Rect& r) { return (r & own) == own; });
+    MarkerDetection d;
+    if (holder != plan.rois.end() && detector.refine_known(gray, p, *holder, camera, d)) {
+      add(d);
+      ++counters_.predicted;
+      continue;
     }
+    for (std::size_t i = 0; i < plan.rois.size(); ++i)
+      if ((plan.rois[i] & own).area() > 0) search[i] = true;
+  }
+  for (std::size_t i = 0; i < plan.rois.size(); ++i) {
+    if (!search[i]) continue;
+    ++counters_.roi_searches;
+    for (const auto& d : detector.detect(gray, plan.rois[i], camera)) add(d);
   }
   // Every tracked marker must be found again near its prediction; otherwise the frame is
   // searched in full (the caller decodes it whole if it decoded only the ROIs).
@@ -126,13 +165,13 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
   for (const auto& t : tracks_) {
     const auto elapsed = static_cast<double>(frame_ - t.frame);
     const Point2 c0 = centre(t.last);
-    const Point2 predicted{c0.x + t.velocity.x * elapsed, c0.y + t.velocity.y * elapsed};
+    const Point2 expected{c0.x + t.velocity.x * elapsed, c0.y + t.velocity.y * elapsed};
     const double r = reach(t);
     bool found = false;
     for (std::size_t i = 0; i < out.size() && !found; ++i) {
       const Point2 c = centre(out[i]);
       if (!used[i] && out[i].id == t.last.id &&
-          std::hypot(c.x - predicted.x, c.y - predicted.y) <= r) {
+          std::hypot(c.x - expected.x, c.y - expected.y) <= r) {
         used[i] = found = true;
       }
     }

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <numbers>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -152,6 +153,60 @@ TEST(Tracker, GivesTheFullSearchMarkersAndCorners) {
   EXPECT_GE(compared, 18 * 4 + 9);
   EXPECT_EQ(missed, 0);  // the full search finds every marker (truth), so tracking does too
   EXPECT_LE(tracker.counters().full_searches, 5u);  // frames 0, 3, 9, 15 (+ the marker leaving)
+}
+
+// Tracking's shortcut (Detector::refine_known): from corners predicted up to 2.5 px off or
+// turned by up to 2 degrees, the full search's corners within 0.05 px; a wrong id, a wrong
+// orientation, a prediction too far off, or pixels outside the valid region: refused.
+TEST(Tracker, RefineKnownGivesTheFullSearchCornersAndRefusesWhatItCannotVerify) {
+  const Scene scene = test_scene();
+  const CameraRenderer r(scene, scene.camera_index("red"));
+  const auto& C = r.camera().position;
+  Sequence seq{r, {}};
+  seq.movers.push_back({.id = 5, .x = C.x() - 0.7, .y = C.y() + 0.2, .yaw = 0.4});
+  seq.movers.push_back({.id = 17, .length = 0.075, .x = C.x() + 1.3, .y = C.y() - 0.6, .yaw = 2.0});
+  std::vector<ips::sim::MarkerTruth> truth;
+  const cv::Mat gray = seq.frame(0, truth);
+  const ips::CameraModel& cam = r.camera().model;
+  ips::Detector detector;
+  const auto full = detector.detect(gray, &cam);
+  ASSERT_EQ(full.size(), 2u);
+  const cv::Rect whole(0, 0, gray.cols, gray.rows);
+  for (const auto& d : full) {
+    ips::Point2 c{0, 0};
+    for (const auto& p : d.corners_px) c = {c.x + p.x / 4, c.y + p.y / 4};
+    auto moved = [&](double dx, double dy, double turn) {
+      ips::MarkerDetection p = d;
+      for (auto& q : p.corners_px) {
+        const double x = q.x - c.x, y = q.y - c.y;
+        q = {c.x + dx + x * std::cos(turn) - y * std::sin(turn),
+             c.y + dy + x * std::sin(turn) + y * std::cos(turn)};
+      }
+      return p;
+    };
+    for (const auto& [dx, dy, turn] : {std::tuple{0.0, 0.0, 0.0}, {1.5, -1.0, 0.0}, {-1.0, 1.0, 0.017}, {-2.0, 1.5, 0.0}, {0.0, 0.0, 0.035},
+                                        {1.0, 1.0, -0.017}}) {
+      ips::MarkerDetection out;
+      ASSERT_TRUE(detector.refine_known(gray, moved(dx, dy, turn), whole, &cam, out))
+          << "marker " << d.id << " predicted " << dx << ", " << dy << " px off, turned " << turn;
+      EXPECT_EQ(out.id, d.id);
+      for (std::size_t k = 0; k < 4; ++k) {
+        EXPECT_NEAR(out.corners_px[k].x, d.corners_px[k].x, 0.05) << "marker " << d.id;
+        EXPECT_NEAR(out.corners_px[k].y, d.corners_px[k].y, 0.05) << "marker " << d.id;
+      }
+    }
+    ips::MarkerDetection out;
+    EXPECT_FALSE(detector.refine_known(gray, moved(12, 0, 0), whole, &cam, out)) << d.id;
+    ips::MarkerDetection wrong_id = d;
+    wrong_id.id = d.id == 5 ? 6 : 16;
+    EXPECT_FALSE(detector.refine_known(gray, wrong_id, whole, &cam, out)) << d.id;
+    ips::MarkerDetection turned = d;  // the same square a quarter turn off: another corner 0
+    std::rotate(turned.corners_px.begin(), turned.corners_px.begin() + 1, turned.corners_px.end());
+    EXPECT_FALSE(detector.refine_known(gray, turned, whole, &cam, out)) << d.id;
+    // Pixels outside `valid` may not be decoded: a region cutting the marker is refused.
+    const cv::Rect cut(0, 0, static_cast<int>(c.x), gray.rows);
+    EXPECT_FALSE(detector.refine_known(gray, d, cut, &cam, out)) << d.id;
+  }
 }
 
 // Tracking off: every frame is a full search.
