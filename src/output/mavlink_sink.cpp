@@ -103,8 +103,10 @@ void MavlinkSink::publish(const Datagram& update) {
     // A marker on a rigid body is published as the body (version 2): the vehicle then gets the
     // body's pose (origin, heading) from every update its marker contributed to with a known yaw.
     for (const BodyRecord& b : update.bodies) {
-      if (sent || !b.has_yaw) break;
-      if (std::find(b.ids.begin(), b.ids.end(), static_cast<std::uint32_t>(v.config.marker)) == b.ids.end()) continue;
+      if (sent) break;
+      if (!b.has_yaw ||
+          std::find(b.ids.begin(), b.ids.end(), static_cast<std::uint32_t>(v.config.marker)) == b.ids.end())
+        continue;
       MarkerRecord m;
       m.id = static_cast<std::uint32_t>(v.config.marker);
       m.camera_mask = b.camera_mask;
