@@ -252,10 +252,10 @@ TEST(MavlinkSink, AVehicleWhoseMarkerIsOnABodyGetsTheBodysPose) {
   d.capture_monotonic_ns = 5'000'000'000LL;
   d.capture_realtime_ns = 1'700'000'000'000'000'000LL;
   BodyRecord other, mine;
-  other.name = "other";
-  other.ids = {4};
+  other.name = "other";  // lists marker 3 too, but without a yaw: skipped
+  other.ids = {3};
   other.id_count = 1;
-  other.has_yaw = true;
+  other.has_yaw = false;
   mine.name = "robot";
   mine.x = 1.5, mine.y = 2.0, mine.z = 0.0, mine.yaw = 0.3;
   mine.has_yaw = true;
