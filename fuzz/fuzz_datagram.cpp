@@ -2,7 +2,7 @@
 // decode_datagram (binary and JSON lines; ips listen, the tests, client code) and the C
 // decoder robots compile from include/ips/wire.h. Beyond "no fault", the two binary decoders
 // must agree: a datagram the C++ decoder accepts, the C decoder accepts with the same header
-// and records; and what decodes re-encodes to something that decodes the same.
+// and records (marker and, version 2, body records); and what decodes re-encodes to something that decodes the same.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -22,8 +22,14 @@ bool same_ints(const ips::Datagram& a, const ips::Datagram& b) {
   if (a.version != b.version || a.has_velocity != b.has_velocity || a.sequence != b.sequence ||
       a.update != b.update || a.part != b.part || a.parts != b.parts ||
       a.capture_realtime_ns != b.capture_realtime_ns || a.capture_monotonic_ns != b.capture_monotonic_ns ||
-      a.publish_realtime_ns != b.publish_realtime_ns || a.markers.size() != b.markers.size())
+      a.publish_realtime_ns != b.publish_realtime_ns || a.markers.size() != b.markers.size() ||
+      a.bodies.size() != b.bodies.size())
     return false;
+  for (std::size_t i = 0; i < a.bodies.size(); ++i)
+    if (a.bodies[i].name != b.bodies[i].name || a.bodies[i].camera_mask != b.bodies[i].camera_mask ||
+        a.bodies[i].dt_us != b.bodies[i].dt_us || a.bodies[i].has_yaw != b.bodies[i].has_yaw ||
+        a.bodies[i].id_count != b.bodies[i].id_count || a.bodies[i].ids != b.bodies[i].ids)
+      return false;
   for (std::size_t i = 0; i < a.markers.size(); ++i)
     if (a.markers[i].id != b.markers[i].id || a.markers[i].camera_mask != b.markers[i].camera_mask ||
         a.markers[i].dt_us != b.markers[i].dt_us)
@@ -40,6 +46,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (std::uint16_t i = 0; i < h.marker_count; ++i) {
       ips_wire_marker m{};
       ips_wire_read_marker(data, &h, i, &m);
+    }
+    for (std::uint16_t i = 0; i < h.body_count; ++i) {
+      ips_wire_body b{};
+      ips_wire_read_body(data, &h, i, &b);
     }
   }
   ips::Datagram d;
@@ -62,6 +72,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const ips::MarkerRecord& r = d.markers[i];
       check(m.id == r.id && m.camera_mask == r.camera_mask && m.dt_us == r.dt_us && double(m.x) == r.x &&
             double(m.y) == r.y && double(m.z) == r.z && double(m.yaw) == r.yaw && double(m.vx) == r.vx);
+    }
+    check(h.body_count == d.bodies.size());
+    for (std::uint16_t i = 0; i < h.body_count; ++i) {
+      ips_wire_body b{};
+      ips_wire_read_body(data, &h, i, &b);
+      const ips::BodyRecord& r = d.bodies[i];
+      check(r.name == b.name && b.camera_mask == r.camera_mask && b.dt_us == r.dt_us && double(b.x) == r.x &&
+            double(b.qw) == r.qw && double(b.qz) == r.qz && b.id_count == r.id_count &&
+            ((b.flags & IPS_WIRE_BODY_HAS_YAW) != 0) == r.has_yaw);
+      for (std::size_t k = 0; k < r.ids.size(); ++k) check(b.ids[k] == r.ids[k]);
     }
   }
   // What the decoder accepted, the encoders can write, and it decodes the same.

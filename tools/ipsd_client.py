@@ -2,7 +2,7 @@
 """Minimal client of the ipsd position stream (Python standard library only).
 
 Decodes the binary form (layout: include/ips/wire.h, README "daemon") and the JSON-lines
-form, and prints one line per marker. Use it as a starting point for a robot's own code:
+form, and prints one line per marker (and per rigid body: version 2). Use it as a starting point for a robot's own code:
 
     python3 tools/ipsd_client.py --port 5005              # unicast/broadcast
     python3 tools/ipsd_client.py --group 239.255.42.1 --port 5006
@@ -25,11 +25,14 @@ import sys
 import time
 
 MAGIC = b"IPSD"
-VERSION = 1
+VERSIONS = (1, 2)  # 2 = with rigid bodies (a daemon with `bodies:` configured)
 FLAG_VELOCITY = 0x0001
 HEADER = struct.Struct("<4sHHIHHBBHIqqq")  # 48 bytes, little-endian
 RECORD = struct.Struct("<IIffffffi")        # 36 bytes
 VELOCITY = struct.Struct("<fff")            # +12 bytes when FLAG_VELOCITY
+BODY_SECTION = struct.Struct("<HH")         # version 2: body_count, body_record_size
+BODY = struct.Struct("<32sIffffffffffiHH4I")  # 100 bytes
+BODY_HAS_YAW = 0x0001
 
 
 SUB_REQUEST = struct.Struct("<4sBBBBHH16s")  # 28 bytes, then ids (u32 each), then the HMAC
@@ -113,13 +116,34 @@ def decode(data: bytes) -> dict:
      t_real, t_mono, t_pub) = HEADER.unpack_from(data)
     if magic != MAGIC:
         raise Malformed("bad magic")
-    if version != VERSION:
-        raise Malformed(f"unsupported protocol version {version}")
+    if version not in VERSIONS:
+        raise Malformed(f"ipsd stream version {version}: this client reads versions 1 and 2; update it")
     velocity = bool(flags & FLAG_VELOCITY)
     if record_size < RECORD.size + (VELOCITY.size if velocity else 0):
         raise Malformed(f"record_size {record_size} too small")
-    if len(data) != HEADER.size + count * record_size:
+    end = HEADER.size + count * record_size
+    bodies = []
+    if version == 1 and len(data) != end:
         raise Malformed("length does not match marker_count * record_size")
+    if version == 2:
+        if len(data) < end + BODY_SECTION.size:
+            raise Malformed("too short for the body section")
+        body_count, body_size = BODY_SECTION.unpack_from(data, end)
+        if body_size < BODY.size:
+            raise Malformed(f"body_record_size {body_size} too small")
+        if len(data) != end + BODY_SECTION.size + body_count * body_size:
+            raise Malformed("length does not match the records and the body section")
+        for i in range(body_count):
+            off = end + BODY_SECTION.size + i * body_size  # step by body_record_size
+            (name, mask, x, y, z, yaw, qw, qx, qy, qz, quality, spread, dt_us, bflags, id_count,
+             *ids) = BODY.unpack_from(data, off)
+            b = {"name": name.split(b"\0", 1)[0].decode("utf-8", "replace"), "cameras": mask,
+                 "x": x, "y": y, "z": z, "yaw": yaw, "qw": qw, "qx": qx, "qy": qy, "qz": qz,
+                 "quality": quality, "spread": spread, "dt_us": dt_us,
+                 "has_yaw": bool(bflags & BODY_HAS_YAW), "id_count": id_count, "ids": ids[:min(id_count, 4)]}
+            if not all(math.isfinite(b[k]) for k in ("x", "y", "z", "yaw", "qw", "qx", "qy", "qz")):
+                raise Malformed("non-finite body pose")
+            bodies.append(b)
     if parts == 0 or part >= parts:
         raise Malformed(f"part {part} of {parts}")
     markers = []
@@ -136,7 +160,7 @@ def decode(data: bytes) -> dict:
     return {"type": "ips.positions", "version": version, "seq": seq, "update": update,
             "part": part, "parts": parts, "t_capture_real_ns": t_real,
             "t_capture_mono_ns": t_mono, "t_publish_real_ns": t_pub,
-            "velocity": velocity, "markers": markers}
+            "velocity": velocity, "markers": markers, **({"bodies": bodies} if version == 2 else {})}
 
 
 def main() -> int:
@@ -195,6 +219,12 @@ def main() -> int:
                 if d["velocity"]:
                     line += f"  v ({m['vx']:.2f}, {m['vy']:.2f}) m/s"
                 print(line, flush=True)
+            for b in d.get("bodies", []):
+                yaw = f"{math.degrees(b['yaw']):7.1f} deg" if b["has_yaw"] else "      - deg"
+                print(f"seq {d['seq']:6d}  body {b['name']}  x {b['x']:7.3f}  y {b['y']:7.3f}  z {b['z']:6.3f} m  "
+                      f"yaw {yaw}  q ({b['qw']:.3f} {b['qx']:.3f} {b['qy']:.3f} {b['qz']:.3f})  "
+                      f"ids {','.join(str(i) for i in b['ids'])}  cams 0x{b['cameras']:02x}  age {age_ms:6.1f} ms",
+                      flush=True)
     except KeyboardInterrupt:
         pass
     if sub:

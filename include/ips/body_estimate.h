@@ -72,6 +72,7 @@ struct FusedBody {
   std::vector<int> marker_ids;  ///< ids that contributed (sorted, unique)
   int observations = 0;
   double quality = 0.0;  ///< sum of contributing pixel areas
+  double spread = 0.0;   ///< largest distance of a view's body position from their fused one, m
   std::int64_t t_mono_ns = 0, t_real_ns = 0;
 };
 

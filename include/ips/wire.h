@@ -6,14 +6,20 @@
  * Never memcpy a host struct onto the wire.
  *
  * A datagram = one header (IPS_WIRE_HEADER_SIZE bytes) + marker_count records of
- * record_size bytes each. A receiver must use record_size from the header (not a constant)
- * to step through the records: later protocol minor revisions may append fields to a record,
- * and an old receiver then skips them.
+ * record_size bytes each; in version 2, then a body section (below). A receiver must use
+ * record_size (and body_record_size) from the datagram (not a constant) to step through the
+ * records: later protocol minor revisions may append fields to a record, and an old receiver
+ * then skips them.
+ *
+ * Versions: ipsd sends version 1 when its configuration has no `bodies:`, version 2 when it
+ * has (README "bodies"). A version-1-only receiver refuses version 2 (IPS_WIRE_BAD_VERSION);
+ * these helpers read both. Version 2 = version 1 + the body section; the header and the
+ * marker records are the same.
  *
  * Header, 48 bytes:
  *   off size type  field
  *     0    4 u8[4] magic: the ASCII bytes 'I' 'P' 'S' 'D'
- *     4    2 u16   version: protocol version, currently 1
+ *     4    2 u16   version: protocol version, 1 or 2
  *     6    2 u16   flags: bit 0 = records carry velocity (IPS_WIRE_FLAG_VELOCITY); other bits 0
  *     8    4 u32   sequence: datagram counter of this output, +1 per datagram (wraps at 2^32);
  *                  a gap means a lost datagram
@@ -47,6 +53,37 @@
  *    36    4 f32   vx, m/s (constant-velocity Kalman filter)
  *    40    4 f32   vy, m/s
  *    44    4 f32   vz, m/s
+ *
+ * Version 2 only: the body section, right after the marker records (at byte
+ * B = 48 + marker_count * record_size). A marker that belongs to a body is published inside
+ * its body only, never also as a marker record.
+ *   off size type  field
+ *   B+0    2 u16   body_count: body records that follow
+ *   B+2    2 u16   body_record_size: bytes per body record (100)
+ * The datagram is exactly B + 4 + body_count * body_record_size bytes.
+ *
+ * Body record, 100 bytes (no velocity):
+ *   off size type     field
+ *     0   32 char[32] name: the body's name (config bodies[].name), UTF-8, NUL-padded; at most
+ *                     31 bytes, so it is always NUL-terminated
+ *    32    4 u32      camera_mask: bit i set = camera i contributed
+ *    36    4 f32      x, metres, world frame: the body origin
+ *    40    4 f32      y, metres
+ *    44    4 f32      z, metres (0 for a ground body: its origin is on the floor)
+ *    48    4 f32      yaw, radians in (-pi, pi]: heading of the body x axis
+ *    52    4 f32      qw  \
+ *    56    4 f32      qx   | orientation, body -> world, unit quaternion (a ground body:
+ *    60    4 f32      qy   | the yaw about world z)
+ *    64    4 f32      qz  /
+ *    68    4 f32      quality: sum of the contributing marker areas in the images, px^2
+ *    72    4 f32      spread, metres: largest distance of a contributing view's body position
+ *                     from the fused one
+ *    76    4 i32      dt_us: this body's time minus the header's capture time, microseconds
+ *                     (<= 0). Per body name, header time + dt_us never decreases.
+ *    80    2 u16      body_flags: bit 0 = IPS_WIRE_BODY_HAS_YAW (yaw and quaternion are
+ *                     measured; 0 = position only, e.g. a cube side seen with no face known)
+ *    82    2 u16      id_count: distinct marker ids that contributed
+ *    84   16 u32[4]   ids: the first min(id_count, 4) of them, ascending; the rest 0
  */
 #ifndef IPS_WIRE_H
 #define IPS_WIRE_H
@@ -66,7 +103,8 @@ extern "C" {
 #define IPS_WIRE_MAGIC_1 'P'
 #define IPS_WIRE_MAGIC_2 'S'
 #define IPS_WIRE_MAGIC_3 'D'
-#define IPS_WIRE_VERSION 1u
+#define IPS_WIRE_VERSION 1u   /* without bodies */
+#define IPS_WIRE_VERSION_2 2u /* with the body section */
 #define IPS_WIRE_FLAG_VELOCITY 0x0001u
 #define IPS_WIRE_HEADER_SIZE 48u
 #define IPS_WIRE_RECORD_SIZE 36u          /* without velocity */
@@ -102,6 +140,29 @@ extern "C" {
 #define IPS_WIRE_REC_VX 36u
 #define IPS_WIRE_REC_VY 40u
 #define IPS_WIRE_REC_VZ 44u
+
+/* Version 2: the body section and its records. */
+#define IPS_WIRE_BODY_SECTION_SIZE 4u
+#define IPS_WIRE_BODY_RECORD_SIZE 100u
+#define IPS_WIRE_BODY_NAME_SIZE 32u
+#define IPS_WIRE_BODY_MAX_IDS 4u
+#define IPS_WIRE_BODY_HAS_YAW 0x0001u
+#define IPS_WIRE_BODY_NAME 0u
+#define IPS_WIRE_BODY_CAMERA_MASK 32u
+#define IPS_WIRE_BODY_X 36u
+#define IPS_WIRE_BODY_Y 40u
+#define IPS_WIRE_BODY_Z 44u
+#define IPS_WIRE_BODY_YAW 48u
+#define IPS_WIRE_BODY_QW 52u
+#define IPS_WIRE_BODY_QX 56u
+#define IPS_WIRE_BODY_QY 60u
+#define IPS_WIRE_BODY_QZ 64u
+#define IPS_WIRE_BODY_QUALITY 68u
+#define IPS_WIRE_BODY_SPREAD 72u
+#define IPS_WIRE_BODY_DT_US 76u
+#define IPS_WIRE_BODY_FLAGS 80u
+#define IPS_WIRE_BODY_ID_COUNT 82u
+#define IPS_WIRE_BODY_IDS 84u
 
 /* ---- little-endian readers (byte-wise: any host byte order, any alignment) ---- */
 static inline uint16_t ips_wire_get_u16(const uint8_t* p) {
@@ -177,6 +238,9 @@ struct ips_wire_header {
   int64_t capture_realtime_ns;
   int64_t capture_monotonic_ns;
   int64_t publish_realtime_ns;
+  /* version 2 (both 0 in version 1) */
+  uint16_t body_count;
+  uint16_t body_record_size;
 };
 
 struct ips_wire_marker {
@@ -196,7 +260,22 @@ enum ips_wire_status {
   IPS_WIRE_BAD_VERSION = -3,    /* a protocol version this header does not describe */
   IPS_WIRE_BAD_RECORD_SIZE = -4,/* record_size smaller than the fields the flags announce */
   IPS_WIRE_BAD_LENGTH = -5,     /* length != header + marker_count * record_size */
-  IPS_WIRE_BAD_PARTS = -6       /* parts == 0 or part >= parts */
+  IPS_WIRE_BAD_PARTS = -6,      /* parts == 0 or part >= parts */
+  IPS_WIRE_BAD_BODY_RECORD_SIZE = -7 /* version 2: body_record_size smaller than a body record */
+};
+
+/* Version 2 body record, decoded. */
+struct ips_wire_body {
+  char name[IPS_WIRE_BODY_NAME_SIZE]; /* always NUL-terminated after ips_wire_read_body */
+  uint32_t camera_mask;
+  float x, y, z, yaw;
+  float qw, qx, qy, qz;
+  float quality;
+  float spread;
+  int32_t dt_us;
+  uint16_t flags; /* IPS_WIRE_BODY_HAS_YAW */
+  uint16_t id_count;
+  uint32_t ids[IPS_WIRE_BODY_MAX_IDS];
 };
 
 /* Validates a whole datagram and decodes its header. Returns IPS_WIRE_OK or a negative
@@ -209,7 +288,9 @@ static inline int ips_wire_read_header(const uint8_t* buf, size_t len, struct ip
       buf[2] != (uint8_t)IPS_WIRE_MAGIC_2 || buf[3] != (uint8_t)IPS_WIRE_MAGIC_3)
     return IPS_WIRE_BAD_MAGIC;
   h->version = ips_wire_get_u16(buf + IPS_WIRE_OFF_VERSION);
-  if (h->version != IPS_WIRE_VERSION) return IPS_WIRE_BAD_VERSION;
+  h->body_count = 0;
+  h->body_record_size = 0;
+  if (h->version != IPS_WIRE_VERSION && h->version != IPS_WIRE_VERSION_2) return IPS_WIRE_BAD_VERSION;
   h->flags = ips_wire_get_u16(buf + IPS_WIRE_OFF_FLAGS);
   h->sequence = ips_wire_get_u32(buf + IPS_WIRE_OFF_SEQUENCE);
   h->marker_count = ips_wire_get_u16(buf + IPS_WIRE_OFF_MARKER_COUNT);
@@ -222,8 +303,19 @@ static inline int ips_wire_read_header(const uint8_t* buf, size_t len, struct ip
   h->publish_realtime_ns = ips_wire_get_i64(buf + IPS_WIRE_OFF_PUBLISH_REALTIME);
   min_record = (h->flags & IPS_WIRE_FLAG_VELOCITY) ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE;
   if (h->record_size < min_record) return IPS_WIRE_BAD_RECORD_SIZE;
-  if ((uint64_t)len != (uint64_t)IPS_WIRE_HEADER_SIZE + (uint64_t)h->marker_count * h->record_size)
-    return IPS_WIRE_BAD_LENGTH;
+  {
+    const uint64_t markers_end = (uint64_t)IPS_WIRE_HEADER_SIZE + (uint64_t)h->marker_count * h->record_size;
+    if (h->version == IPS_WIRE_VERSION) {
+      if ((uint64_t)len != markers_end) return IPS_WIRE_BAD_LENGTH;
+    } else {
+      if ((uint64_t)len < markers_end + IPS_WIRE_BODY_SECTION_SIZE) return IPS_WIRE_BAD_LENGTH;
+      h->body_count = ips_wire_get_u16(buf + markers_end);
+      h->body_record_size = ips_wire_get_u16(buf + markers_end + 2);
+      if (h->body_record_size < IPS_WIRE_BODY_RECORD_SIZE) return IPS_WIRE_BAD_BODY_RECORD_SIZE;
+      if ((uint64_t)len != markers_end + IPS_WIRE_BODY_SECTION_SIZE + (uint64_t)h->body_count * h->body_record_size)
+        return IPS_WIRE_BAD_LENGTH;
+    }
+  }
   if (h->parts == 0 || h->part >= h->parts) return IPS_WIRE_BAD_PARTS;
   return IPS_WIRE_OK;
 }
@@ -248,6 +340,32 @@ static inline void ips_wire_read_marker(const uint8_t* buf, const struct ips_wir
   } else {
     m->vx = m->vy = m->vz = 0.0f;
   }
+}
+
+/* Decodes body record `index` (< h->body_count) of a version-2 datagram validated by
+ * ips_wire_read_header. */
+static inline void ips_wire_read_body(const uint8_t* buf, const struct ips_wire_header* h, uint16_t index,
+                                      struct ips_wire_body* b) {
+  const uint8_t* r = buf + IPS_WIRE_HEADER_SIZE + (size_t)h->marker_count * h->record_size +
+                     IPS_WIRE_BODY_SECTION_SIZE + (size_t)index * h->body_record_size;
+  unsigned i;
+  memcpy(b->name, r + IPS_WIRE_BODY_NAME, IPS_WIRE_BODY_NAME_SIZE);
+  b->name[IPS_WIRE_BODY_NAME_SIZE - 1] = '\0';
+  b->camera_mask = ips_wire_get_u32(r + IPS_WIRE_BODY_CAMERA_MASK);
+  b->x = ips_wire_get_f32(r + IPS_WIRE_BODY_X);
+  b->y = ips_wire_get_f32(r + IPS_WIRE_BODY_Y);
+  b->z = ips_wire_get_f32(r + IPS_WIRE_BODY_Z);
+  b->yaw = ips_wire_get_f32(r + IPS_WIRE_BODY_YAW);
+  b->qw = ips_wire_get_f32(r + IPS_WIRE_BODY_QW);
+  b->qx = ips_wire_get_f32(r + IPS_WIRE_BODY_QX);
+  b->qy = ips_wire_get_f32(r + IPS_WIRE_BODY_QY);
+  b->qz = ips_wire_get_f32(r + IPS_WIRE_BODY_QZ);
+  b->quality = ips_wire_get_f32(r + IPS_WIRE_BODY_QUALITY);
+  b->spread = ips_wire_get_f32(r + IPS_WIRE_BODY_SPREAD);
+  b->dt_us = ips_wire_get_i32(r + IPS_WIRE_BODY_DT_US);
+  b->flags = ips_wire_get_u16(r + IPS_WIRE_BODY_FLAGS);
+  b->id_count = ips_wire_get_u16(r + IPS_WIRE_BODY_ID_COUNT);
+  for (i = 0; i < IPS_WIRE_BODY_MAX_IDS; ++i) b->ids[i] = ips_wire_get_u32(r + IPS_WIRE_BODY_IDS + 4u * i);
 }
 
 /* ---- Unicast subscriptions (output `type: subscriptions`) ----

@@ -107,6 +107,7 @@ std::vector<FusedBody> BodyEstimator::fuse(std::span<const BodyObservation> obse
     }
     const FusedMarker fp = fuse_marker(pos, method);
     f.pose.position = fp.p_world;
+    f.spread = fp.spread;
     f.t_mono_ns = fp.t_mono_ns;
     f.t_real_ns = fp.t_real_ns;
     if (!yaw.empty()) {

@@ -1,5 +1,5 @@
 // `ips listen`: receive the position stream (binary or JSON, detected per datagram), print
-// live positions with rate and age per marker; malformed datagrams are counted and warned about.
+// live positions with rate and age per marker (and per rigid body, version 2); malformed datagrams are counted and warned about.
 // With --subscribe, asks a daemon's `subscriptions` output for a unicast stream to this socket
 // (cookie exchange, renewals, unsubscribe at the end: include/ips/wire.h).
 #include <arpa/inet.h>
@@ -100,6 +100,18 @@ struct MarkerView {
   std::deque<std::int64_t> arrivals;  // monotonic ns of the last second's updates
 };
 
+struct BodyView {
+  ips::BodyRecord last;
+  std::int64_t capture_real_ns = 0;
+  std::deque<std::int64_t> arrivals;
+};
+
+void print_rate_age(std::deque<std::int64_t>& arrivals, std::int64_t capture_real_ns, std::int64_t now, std::int64_t real) {
+  while (!arrivals.empty() && now - arrivals.front() > 1'000'000'000) arrivals.pop_front();
+  std::printf("  %5.1f Hz  age %7.1f ms", static_cast<double>(arrivals.size()),
+              1e-6 * static_cast<double>(real - capture_real_ns));
+}
+
 int run_listen(ListenOptions o) {
   std::optional<ips::subscription::Client> client;
   sockaddr_in daemon{};
@@ -131,6 +143,7 @@ int run_listen(ListenOptions o) {
   bool have_seq = false;
   std::uint32_t last_seq = 0;
   std::map<std::uint32_t, MarkerView> markers;
+  std::map<std::string, BodyView> bodies;  // version 2 streams (README "bodies")
   const std::int64_t start = ips::monotonic_ns();
   std::int64_t next_print = start + static_cast<std::int64_t>(o.interval_s * 1e9);
   std::vector<std::uint8_t> buf(65536);
@@ -142,16 +155,27 @@ int run_listen(ListenOptions o) {
     if (!o.json && now >= next_print) {
       next_print = now + static_cast<std::int64_t>(o.interval_s * 1e9);
       const std::int64_t real = ips::realtime_ns();
-      std::printf("--- %zu marker(s), %llu datagrams, %llu malformed, %llu lost\n", markers.size(),
-                  static_cast<unsigned long long>(valid), static_cast<unsigned long long>(malformed),
-                  static_cast<unsigned long long>(lost));
+      std::printf("--- %zu marker(s), %zu bod%s, %llu datagrams, %llu malformed, %llu lost\n", markers.size(),
+                  bodies.size(), bodies.size() == 1 ? "y" : "ies", static_cast<unsigned long long>(valid),
+                  static_cast<unsigned long long>(malformed), static_cast<unsigned long long>(lost));
       for (auto& [id, v] : markers) {
-        while (!v.arrivals.empty() && now - v.arrivals.front() > 1'000'000'000) v.arrivals.pop_front();
-        const double age_ms = 1e-6 * static_cast<double>(real - v.capture_real_ns);
-        std::printf("id %4u  x %8.3f  y %8.3f  z %7.3f m  yaw %7.1f deg  cams 0x%02x  %5.1f Hz  age %7.1f ms",
-                    id, v.last.x, v.last.y, v.last.z, v.last.yaw * 180.0 / std::numbers::pi, v.last.camera_mask,
-                    static_cast<double>(v.arrivals.size()), age_ms);
+        std::printf("id %4u  x %8.3f  y %8.3f  z %7.3f m  yaw %7.1f deg  cams 0x%02x", id, v.last.x, v.last.y,
+                    v.last.z, v.last.yaw * 180.0 / std::numbers::pi, v.last.camera_mask);
+        print_rate_age(v.arrivals, v.capture_real_ns, now, real);
         if (v.last.vx != 0 || v.last.vy != 0) std::printf("  v (%.2f, %.2f) m/s", v.last.vx, v.last.vy);
+        std::printf("\n");
+      }
+      for (auto& [name, v] : bodies) {
+        const auto& b = v.last;
+        std::printf("body %-12s  x %8.3f  y %8.3f  z %7.3f m  yaw ", name.c_str(), b.x, b.y, b.z);
+        if (b.has_yaw)
+          std::printf("%7.1f deg", b.yaw * 180.0 / std::numbers::pi);
+        else
+          std::printf("      - deg");
+        std::printf("  q (%.3f %.3f %.3f %.3f)  cams 0x%02x  ids", b.qw, b.qx, b.qy, b.qz, b.camera_mask);
+        for (const auto id : b.ids) std::printf(" %u", id);
+        if (b.id_count > b.ids.size()) std::printf(" +%zu", b.id_count - b.ids.size());
+        print_rate_age(v.arrivals, v.capture_real_ns, now, real);
         std::printf("\n");
       }
       std::fflush(stdout);
@@ -205,6 +229,12 @@ int run_listen(ListenOptions o) {
       MarkerView& v = markers[m.id];
       v.last = m;
       v.capture_real_ns = d.capture_realtime_ns + static_cast<std::int64_t>(m.dt_us) * 1000;
+      v.arrivals.push_back(arrived);
+    }
+    for (const auto& b : d.bodies) {
+      BodyView& v = bodies[b.name];
+      v.last = b;
+      v.capture_real_ns = d.capture_realtime_ns + static_cast<std::int64_t>(b.dt_us) * 1000;
       v.arrivals.push_back(arrived);
     }
   }

@@ -119,7 +119,7 @@ void CameraWorker::process(ips::Frame& frame) {
     return;
   }
   if (watched) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
-  ips::FrameObservations batch;
+  CameraBatch batch;
   batch.camera_index = index;
   // cameras[].timestamp_offset: the source's stamp -> mid exposure (README "Time").
   const auto offset = static_cast<std::int64_t>(std::llround(config_.timestamp_offset_s * 1e9));
@@ -132,6 +132,19 @@ void CameraWorker::process(ips::Frame& frame) {
   for (const auto& d : detections) {
     double height = rt->config.markers.height_of(d.id);
     const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt->sizes.length_of(d.id));
+    if (rt->bodies && rt->bodies->body_of(d.id) >= 0) {
+      // A body's marker: its full pose -> a view of the body (README "bodies"); never also a
+      // plain marker. Rejected views (ambiguous, no face fits) are counted.
+      ips::BodyObservation view;
+      std::string why;
+      if (rt->bodies->observe(cam, mapper, index, frame.t_mono_ns, frame.t_real_ns, view, &why)) {
+        batch.bodies.push_back(std::move(view));
+      } else if (stats_.body_rejected++ == 0) {
+        spdlog::info("{}: marker {} of a body gave no body view ({}); such views are skipped and counted",
+                     config_.name, d.id, why);
+      }
+      continue;
+    }
     Eigen::Vector3d ray_origin, ray_direction;
     const bool ray_only = mapper.needs_height() && std::isnan(height) &&
                           mapper.world_ray(cam.p_cam, ray_origin, ray_direction);
@@ -158,7 +171,7 @@ void CameraWorker::process(ips::Frame& frame) {
     batch.observations.push_back(w);
   }
   stats_.detect_ns += static_cast<std::uint64_t>(ips::monotonic_ns() - t0);
-  stats_.markers += batch.observations.size();
+  stats_.markers += batch.observations.size() + batch.bodies.size();
   ++stats_.frames;
   queue_.push(std::move(batch));
 }

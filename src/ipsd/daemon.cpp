@@ -216,10 +216,10 @@ int Daemon::run() {
     if (synthetic) spdlog::info("synthetic cameras: scene time 0 = CLOCK_MONOTONIC {} ns", synthetic_epoch_ns_);
     spdlog::info("ipsd {} running: {} camera(s), fusion '{}', {} output(s)", IPS_VERSION, rt->config.cameras.size(),
                  rt->config.fusion.method, rt->config.outputs.size());
-    // bodies: is checked, but body records are not streamed yet (README "bodies").
+    // bodies: published as body records, stream version 2 (README "bodies").
     if (!rt->config.bodies.empty())
-      spdlog::warn("bodies: {} configured; the daemon does not publish body poses yet: their markers are published as "
-                   "plain markers", rt->config.bodies.size());
+      spdlog::info("bodies: {} configured; the stream is protocol version 2 (body records; their markers are not "
+                   "published as plain markers)", rt->config.bodies.size());
   }
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   sd_notify(0, "READY=1\nSTATUS=running");

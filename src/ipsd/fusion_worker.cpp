@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "ips/clock.h"
+#include "ips/wire.h"
 
 namespace ipsd {
 
@@ -53,6 +54,34 @@ void log_events(const std::vector<ips::FixedMarkerEvent>& events, const ips::Dae
   }
 }
 
+ips::BodyTrackOptions body_options(const ips::FusionConfig& c) {
+  ips::BodyTrackOptions o;
+  o.window_s = c.window_s;
+  o.history_s = c.history_s;
+  o.velocity_span_s = c.velocity_span_s;
+  return o;
+}
+
+// A reload rebuilds the body fusion only when the bodies or the options it uses changed.
+bool same_bodies(const std::vector<ips::BodyDef>& a, const std::vector<ips::BodyDef>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].name != b[i].name || a[i].ground != b[i].ground || a[i].markers.size() != b[i].markers.size())
+      return false;
+    for (std::size_t k = 0; k < a[i].markers.size(); ++k) {
+      const auto &x = a[i].markers[k], &y = b[i].markers[k];
+      if (x.id != y.id || x.edge != y.edge || x.plate != y.plate || x.position != y.position || x.axes != y.axes)
+        return false;
+    }
+  }
+  return true;
+}
+
+std::optional<ips::BodyTrack> make_body_track(const ips::DaemonConfig& c) {
+  if (c.bodies.empty()) return std::nullopt;
+  return ips::BodyTrack(c.bodies, body_options(c.fusion));
+}
+
 bool same_options(const ips::TrackFusionOptions& a, const ips::TrackFusionOptions& b) {
   return a.window_s == b.window_s && a.velocity_span_s == b.velocity_span_s && a.history_s == b.history_s &&
          a.single_camera_depth == b.single_camera_depth &&
@@ -88,6 +117,9 @@ void FusionWorker::run() {
   std::uint64_t counted_late = 0, counted_too_old = 0;
   std::int64_t next_tick = 0;  // fixed-rate output: next publish time, CLOCK_MONOTONIC
   std::vector<ips::FusedMarker> states;
+  std::optional<ips::BodyTrack> bodies = make_body_track(rt->config);  // README "bodies"
+  std::uint64_t counted_body_late = 0;
+  std::vector<ips::FusedBody> body_states;
   if (fixed_) fixed_->configure(fixed_positions(rt->config.markers), monitor_options(rt->config.fusion));
 
   while (!stop_) {
@@ -104,6 +136,17 @@ void FusionWorker::run() {
         fresh.continue_after(fusion);
         fusion = std::move(fresh);
       }
+      const auto& old_c = rt->config;
+      const auto& new_c = latest->config;
+      if (!same_bodies(old_c.bodies, new_c.bodies) || old_c.fusion.window_s != new_c.fusion.window_s ||
+          old_c.fusion.history_s != new_c.fusion.history_s ||
+          old_c.fusion.velocity_span_s != new_c.fusion.velocity_span_s) {
+        if (bodies) stats_.late += bodies->late() - counted_body_late;
+        counted_body_late = 0;
+        auto fresh = make_body_track(new_c);
+        if (fresh && bodies) fresh->continue_after(*bodies);
+        bodies = std::move(fresh);
+      }
       rt = latest;
       if (fixed_) fixed_->configure(fixed_positions(rt->config.markers), monitor_options(rt->config.fusion));
     }
@@ -114,21 +157,31 @@ void FusionWorker::run() {
 
     const std::int64_t wait =
         period > 0 ? std::clamp<std::int64_t>(next_tick - now, 0, kPopTimeoutNs) : kPopTimeoutNs;
-    ips::FrameObservations batch;
+    CameraBatch batch;
     if (queue_.pop(batch, wait)) {
       // Each camera's own view of the fixed markers, before fusion mixes the cameras.
       if (fixed_ && !fixed_->empty()) log_events(fixed_->add(batch), rt->config);
       states.clear();
       fusion.add(batch, *rt->fusion, period > 0 ? nullptr : &states);
-      if (period == 0) publish(states, batch.t_mono_ns, batch.t_real_ns, batch.t_delivered_ns, *rt);
+      body_states.clear();
+      if (bodies && !batch.bodies.empty())
+        bodies->add(batch.camera_index, batch.t_mono_ns, batch.t_real_ns, batch.bodies, *rt->fusion, body_states);
+      if (period == 0) publish(states, body_states, batch.t_mono_ns, batch.t_real_ns, batch.t_delivered_ns, *rt);
     }
     if (period > 0 && ips::monotonic_ns() >= next_tick) {
-      // Fixed rate: every marker's state predicted to the publish instant.
+      // Fixed rate: every marker's state predicted to the publish instant; every body's newest
+      // pose as it is (its dt_us says how old).
       const std::int64_t t = ips::monotonic_ns();
       states.clear();
       fusion.predict_all(t, t + ips::realtime_minus_monotonic_ns(), *rt->fusion, states);
-      publish(states, t, t + ips::realtime_minus_monotonic_ns(), 0, *rt);
+      body_states.clear();
+      if (bodies) bodies->latest(t, body_states);
+      publish(states, body_states, t, t + ips::realtime_minus_monotonic_ns(), 0, *rt);
       next_tick = std::max(next_tick + period, t);
+    }
+    if (bodies) {
+      stats_.late += bodies->late() - counted_body_late;
+      counted_body_late = bodies->late();
     }
     stats_.late += fusion.counters().late - counted_late;
     stats_.too_old += fusion.counters().too_old - counted_too_old;
@@ -137,8 +190,9 @@ void FusionWorker::run() {
   }
 }
 
-void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, std::int64_t t_mono_ns, std::int64_t t_real_ns,
-                           std::int64_t t_delivered_ns, const Runtime& rt) {
+void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const std::vector<ips::FusedBody>& bodies,
+                           std::int64_t t_mono_ns, std::int64_t t_real_ns, std::int64_t t_delivered_ns,
+                           const Runtime& rt) {
   ips::Datagram d;
   d.capture_monotonic_ns = t_mono_ns;  // per-frame: the frame's capture time; fixed rate: the prediction time
   d.capture_realtime_ns = t_real_ns;
@@ -165,6 +219,31 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, std::int
     m.covariance = {f.covariance(0, 0), f.covariance(0, 1), f.covariance(0, 2),
                     f.covariance(1, 1), f.covariance(1, 2), f.covariance(2, 2)};
     d.markers.push_back(m);
+  }
+  // Protocol version 2 exactly when bodies are configured: labs without bodies keep sending
+  // version 1, which their existing clients read (include/ips/wire.h).
+  if (!rt.config.bodies.empty()) d.version = IPS_WIRE_VERSION_2;
+  for (const ips::FusedBody& f : bodies) {
+    ips::BodyRecord b;
+    b.name = f.name;
+    b.camera_mask = f.camera_mask;
+    b.x = f.pose.position.x();
+    b.y = f.pose.position.y();
+    b.z = f.pose.position.z();
+    b.yaw = f.pose.yaw;
+    b.qw = f.pose.q.w();
+    b.qx = f.pose.q.x();
+    b.qy = f.pose.q.y();
+    b.qz = f.pose.q.z();
+    b.quality = f.quality;
+    b.spread = f.spread;
+    b.dt_us = static_cast<std::int32_t>(
+        std::clamp<std::int64_t>((f.t_mono_ns - d.capture_monotonic_ns) / 1000, -1'000'000'000, 0));
+    b.has_yaw = f.has_yaw;
+    b.id_count = static_cast<std::uint16_t>(std::min<std::size_t>(f.marker_ids.size(), 0xffff));
+    for (std::size_t k = 0; k < f.marker_ids.size() && k < IPS_WIRE_BODY_MAX_IDS; ++k)
+      b.ids.push_back(static_cast<std::uint32_t>(f.marker_ids[k]));
+    d.bodies.push_back(std::move(b));
   }
   rt.publisher->publish(d);
   if (web_) web_->publish(d);  // a copy into a bounded inbox; never waits for browsers

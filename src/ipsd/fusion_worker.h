@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "ips/body_track.h"
 #include "ips/fixed_markers.h"
 #include "ips/track_fusion.h"
 #include "ips/web.h"
@@ -29,8 +30,8 @@ class FusionWorker {
 
  private:
   void run();
-  void publish(const std::vector<ips::FusedMarker>& states, std::int64_t t_mono_ns, std::int64_t t_real_ns,
-               std::int64_t t_delivered_ns, const Runtime& rt);
+  void publish(const std::vector<ips::FusedMarker>& states, const std::vector<ips::FusedBody>& bodies,
+               std::int64_t t_mono_ns, std::int64_t t_real_ns, std::int64_t t_delivered_ns, const Runtime& rt);
 
   RuntimeHolder& runtime_;
   ObservationQueue& queue_;

@@ -25,6 +25,7 @@ std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, co
   }
   r->sizes = config.markers.sizes();
   r->fusion = &ips::find_fusion_method(config.fusion.method, config.file.string() + ": fusion.method");
+  if (!config.bodies.empty()) r->bodies = std::make_shared<const ips::BodyEstimator>(config.bodies);
   if (previous && previous->publisher && previous->config.outputs == config.outputs) {
     r->publisher = previous->publisher;
   } else {
@@ -77,7 +78,7 @@ LatencyWindow::Percentiles LatencyWindow::capture() const {
   return of(rotated_ ? last_capture_ : capture_);
 }
 
-void ObservationQueue::push(ips::FrameObservations batch) {
+void ObservationQueue::push(CameraBatch batch) {
   {
     std::lock_guard lock(mutex_);
     if (closed_) return;
@@ -90,7 +91,7 @@ void ObservationQueue::push(ips::FrameObservations batch) {
   cv_.notify_one();
 }
 
-bool ObservationQueue::pop(ips::FrameObservations& out, std::int64_t timeout_ns) {
+bool ObservationQueue::pop(CameraBatch& out, std::int64_t timeout_ns) {
   std::unique_lock lock(mutex_);
   if (!cv_.wait_for(lock, std::chrono::nanoseconds(timeout_ns), [this] { return closed_ || !queue_.empty(); }))
     return false;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "ips/body_estimate.h"
 #include "ips/camera_model.h"
 #include "ips/config.h"
 #include "ips/fusion.h"
@@ -31,6 +32,15 @@ struct Runtime {
   ips::MarkerSizes sizes;
   const ips::FusionMethod* fusion = nullptr;
   std::shared_ptr<ips::Publisher> publisher;
+  /// bodies: the camera threads' marker -> body observation step (const, shared); null
+  /// without bodies. The fusion thread fuses the bodies (ips/body_track.h).
+  std::shared_ptr<const ips::BodyEstimator> bodies;
+};
+
+/// What a camera thread hands the fusion thread per frame: the plain markers (as
+/// ips::FrameObservations) and the views of rigid bodies (their markers are not in the former).
+struct CameraBatch : ips::FrameObservations {
+  std::vector<ips::BodyObservation> bodies;
 };
 
 /// Loads the model file, the intrinsics, resolves the fusion method and opens the outputs
@@ -61,16 +71,16 @@ class RuntimeHolder {
 class ObservationQueue {
  public:
   explicit ObservationQueue(std::size_t capacity = 64) : capacity_(capacity) {}
-  void push(ips::FrameObservations batch);
+  void push(CameraBatch batch);
   /// Waits up to `timeout_ns` for a batch. False on timeout or after close().
-  bool pop(ips::FrameObservations& out, std::int64_t timeout_ns);
+  bool pop(CameraBatch& out, std::int64_t timeout_ns);
   void close();
   std::uint64_t dropped() const { return dropped_.load(); }
 
  private:
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::deque<ips::FrameObservations> queue_;
+  std::deque<CameraBatch> queue_;
   std::size_t capacity_;
   bool closed_ = false;
   std::atomic<std::uint64_t> dropped_{0};
@@ -87,6 +97,7 @@ struct CameraStats {
   std::atomic<std::uint64_t> detect_ns{0};     ///< sum of detect+locate+map time
   std::atomic<std::uint64_t> markers{0};       ///< sum of markers mapped
   std::atomic<std::uint64_t> no_height{0};     ///< markers dropped: the mapper needs a height, none configured
+  std::atomic<std::uint64_t> body_rejected{0}; ///< body markers whose view gave no body observation
   std::atomic<std::int64_t> heartbeat_ns{0};   ///< CLOCK_MONOTONIC of the last loop iteration
   std::atomic<int> state{0};                   ///< CameraState
   std::mutex error_mutex;

@@ -37,6 +37,7 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
     r.corrupt = s.corrupt;
     r.failures = s.failures;
     r.no_height = s.no_height;
+    r.body_rejected = s.body_rejected;
     const int state = s.state;
     r.state = state == static_cast<int>(CameraState::kOpen) ? "open" : state == static_cast<int>(CameraState::kDown) ? "down" : "starting";
     std::lock_guard lock(s.error_mutex);
@@ -55,6 +56,7 @@ std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fus
     std::string line = fmt::format("{}: {:.1f} fps, detect {:.1f} ms, {:.1f} markers, drops {}, corrupt {}, errors {}, {}",
                                    c.name, c.fps, c.detect_ms, c.markers, c.drops, c.corrupt, c.failures, c.state);
     if (c.no_height) line += fmt::format(", {} without height", c.no_height);
+    if (c.body_rejected) line += fmt::format(", {} body views rejected", c.body_rejected);
     if (c.state != "open" && !c.last_error.empty()) line += " (" + c.last_error + ")";
     lines.push_back(line);
   }
@@ -115,7 +117,8 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
     j["cameras"].push_back({{"name", c.name}, {"source", c.source}, {"state", c.state}, {"fps", c.fps},
                             {"detect_ms", c.detect_ms}, {"markers", c.markers}, {"frames", c.frames},
                             {"drops", c.drops}, {"corrupt", c.corrupt}, {"errors", c.failures},
-                            {"no_height", c.no_height}, {"last_error", c.last_error},
+                            {"no_height", c.no_height}, {"body_rejected", c.body_rejected},
+                            {"last_error", c.last_error},
                             {"detect_s_total", 1e-9 * static_cast<double>(c.detect_ns_total)},
                             {"markers_total", c.markers_total}});
   }

@@ -5,6 +5,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -92,11 +93,30 @@ void MavlinkSink::publish(const Datagram& update) {
       v.last_heartbeat_ns = now;
       v.heartbeat_sent = true;
     }
+    bool sent = false;
     for (const MarkerRecord& m : update.markers)
       if (static_cast<int>(m.id) == v.config.marker) {
         send_pose(v, update, m);
+        sent = true;
         break;
       }
+    // A marker on a rigid body is published as the body (version 2): the vehicle then gets the
+    // body's pose (origin, heading) from every update its marker contributed to with a known yaw.
+    for (const BodyRecord& b : update.bodies) {
+      if (sent) break;
+      if (!b.has_yaw ||
+          std::find(b.ids.begin(), b.ids.end(), static_cast<std::uint32_t>(v.config.marker)) == b.ids.end())
+        continue;
+      MarkerRecord m;
+      m.id = static_cast<std::uint32_t>(v.config.marker);
+      m.camera_mask = b.camera_mask;
+      m.x = b.x, m.y = b.y, m.z = b.z, m.yaw = b.yaw;
+      m.quality = b.quality;
+      m.spread = b.spread;
+      m.dt_us = b.dt_us;
+      send_pose(v, update, m);
+      sent = true;
+    }
   }
 }
 

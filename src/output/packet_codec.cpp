@@ -1,6 +1,8 @@
 #include "ips/packet_codec.h"
 
+#include <algorithm>
 #include <cinttypes>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <cstdio>
@@ -44,6 +46,39 @@ void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity) 
 
 [[noreturn]] void malformed(const std::string& why) { throw InputError("malformed datagram: " + why); }
 
+bool known_version(unsigned v) { return v == IPS_WIRE_VERSION || v == IPS_WIRE_VERSION_2; }
+
+// A body name must survive both encodings: valid UTF-8 (JSON) and short enough for the record.
+bool valid_name(const std::string& name) {
+  if (name.size() >= IPS_WIRE_BODY_NAME_SIZE || name.find('\0') != std::string::npos) return false;
+  try {
+    (void)nlohmann::json(name).dump();
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
+  return true;
+}
+
+void append_body_json(std::string& out, const BodyRecord& b) {
+  out += "{\"name\":";
+  out += nlohmann::json(b.name).dump();
+  char buf[1024];
+  int n = std::snprintf(buf, sizeof buf,
+                        ",\"cameras\":%" PRIu32
+                        ",\"x\":%.5f,\"y\":%.5f,\"z\":%.5f,\"yaw\":%.5f,\"qw\":%.6f,\"qx\":%.6f,\"qy\":%.6f,"
+                        "\"qz\":%.6f,\"quality\":%.1f,\"spread\":%.5f,\"dt_us\":%" PRId32
+                        ",\"has_yaw\":%s,\"id_count\":%u,\"ids\":[",
+                        b.camera_mask, b.x, b.y, b.z, b.yaw, b.qw, b.qx, b.qy, b.qz, b.quality, b.spread, b.dt_us,
+                        b.has_yaw ? "true" : "false",
+                        static_cast<unsigned>(std::max<std::size_t>(b.id_count, b.ids.size())));
+  out.append(buf, static_cast<std::size_t>(n));
+  for (std::size_t i = 0; i < b.ids.size() && i < IPS_WIRE_BODY_MAX_IDS; ++i) {
+    n = std::snprintf(buf, sizeof buf, i ? ",%" PRIu32 : "%" PRIu32, b.ids[i]);
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  out += "]}";
+}
+
 double finite_or_throw(double v, const char* field) {
   if (!std::isfinite(v)) malformed(std::string("field '") + field + "' is not a finite number");
   return v;
@@ -56,11 +91,14 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
     case IPS_WIRE_OK: break;
     case IPS_WIRE_TOO_SHORT: malformed(std::to_string(bytes.size()) + " bytes, shorter than a header");
     case IPS_WIRE_BAD_MAGIC: malformed("bad magic");
-    case IPS_WIRE_BAD_VERSION: malformed("unsupported protocol version " + std::to_string(h.version));
+    case IPS_WIRE_BAD_VERSION: throw InputError(unsupported_version_message(h.version));
+    case IPS_WIRE_BAD_BODY_RECORD_SIZE:
+      malformed("body_record_size " + std::to_string(h.body_record_size) + " too small");
     case IPS_WIRE_BAD_RECORD_SIZE: malformed("record_size " + std::to_string(h.record_size) + " too small");
     case IPS_WIRE_BAD_LENGTH:
       malformed("length " + std::to_string(bytes.size()) + " does not match " +
-                std::to_string(h.marker_count) + " records of " + std::to_string(h.record_size) + " bytes");
+                std::to_string(h.marker_count) + " records of " + std::to_string(h.record_size) + " bytes" +
+                (h.version == IPS_WIRE_VERSION_2 ? " + the body section" : ""));
     case IPS_WIRE_BAD_PARTS: malformed("part " + std::to_string(h.part) + " of " + std::to_string(h.parts));
     default: malformed("unknown header error");
   }
@@ -92,6 +130,30 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
     m.vy = finite_or_throw(w.vy, "vy");
     m.vz = finite_or_throw(w.vz, "vz");
     d.markers.push_back(m);
+  }
+  d.bodies.reserve(h.body_count);
+  for (std::uint16_t i = 0; i < h.body_count; ++i) {
+    ips_wire_body w{};
+    ips_wire_read_body(bytes.data(), &h, i, &w);
+    BodyRecord b;
+    b.name.assign(w.name, ::strnlen(w.name, sizeof w.name));
+    if (b.name.empty() || !valid_name(b.name)) malformed("body name is empty or not UTF-8");
+    b.camera_mask = w.camera_mask;
+    b.x = finite_or_throw(w.x, "x");
+    b.y = finite_or_throw(w.y, "y");
+    b.z = finite_or_throw(w.z, "z");
+    b.yaw = finite_or_throw(w.yaw, "yaw");
+    b.qw = finite_or_throw(w.qw, "qw");
+    b.qx = finite_or_throw(w.qx, "qx");
+    b.qy = finite_or_throw(w.qy, "qy");
+    b.qz = finite_or_throw(w.qz, "qz");
+    b.quality = finite_or_throw(w.quality, "quality");
+    b.spread = finite_or_throw(w.spread, "spread");
+    b.dt_us = w.dt_us;
+    b.has_yaw = (w.flags & IPS_WIRE_BODY_HAS_YAW) != 0;
+    b.id_count = w.id_count;
+    b.ids.assign(w.ids, w.ids + std::min<unsigned>(w.id_count, IPS_WIRE_BODY_MAX_IDS));
+    d.bodies.push_back(std::move(b));
   }
   return d;
 }
@@ -131,7 +193,7 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
     malformed("JSON 'type' is not \"ips.positions\"");
   Datagram d;
   d.version = get_integer<std::uint16_t>(j, "version");
-  if (d.version != IPS_WIRE_VERSION) malformed("unsupported protocol version " + std::to_string(d.version));
+  if (!known_version(d.version)) throw InputError(unsupported_version_message(d.version));
   auto vel = j.find("velocity");
   if (vel == j.end() || !vel->is_boolean()) malformed("field 'velocity' missing or not a boolean");
   d.has_velocity = vel->get<bool>();
@@ -164,15 +226,67 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
     }
     d.markers.push_back(m);
   }
+  if (d.version == IPS_WIRE_VERSION_2) {
+    auto bodies = j.find("bodies");
+    if (bodies == j.end() || !bodies->is_array()) malformed("field 'bodies' missing or not an array");
+    for (const auto& bj : *bodies) {
+      if (!bj.is_object()) malformed("a body is not an object");
+      BodyRecord b;
+      auto name = bj.find("name");
+      if (name == bj.end() || !name->is_string()) malformed("field 'name' missing or not a string");
+      b.name = name->get<std::string>();
+      if (b.name.empty() || !valid_name(b.name))
+        malformed("body name is empty, longer than " + std::to_string(IPS_WIRE_BODY_NAME_SIZE - 1) + " bytes or has a NUL");
+      b.camera_mask = get_integer<std::uint32_t>(bj, "cameras");
+      b.x = get_number(bj, "x");
+      b.y = get_number(bj, "y");
+      b.z = get_number(bj, "z");
+      b.yaw = get_number(bj, "yaw");
+      b.qw = get_number(bj, "qw");
+      b.qx = get_number(bj, "qx");
+      b.qy = get_number(bj, "qy");
+      b.qz = get_number(bj, "qz");
+      b.quality = get_number(bj, "quality");
+      b.spread = get_number(bj, "spread");
+      b.dt_us = get_integer<std::int32_t>(bj, "dt_us");
+      auto has_yaw = bj.find("has_yaw");
+      if (has_yaw == bj.end() || !has_yaw->is_boolean()) malformed("field 'has_yaw' missing or not a boolean");
+      b.has_yaw = has_yaw->get<bool>();
+      b.id_count = get_integer<std::uint16_t>(bj, "id_count");
+      auto ids = bj.find("ids");
+      if (ids == bj.end() || !ids->is_array()) malformed("field 'ids' missing or not an array");
+      if (ids->size() != std::min<std::size_t>(b.id_count, IPS_WIRE_BODY_MAX_IDS))
+        malformed("field 'ids' does not hold min(id_count, " + std::to_string(IPS_WIRE_BODY_MAX_IDS) + ") ids");
+      for (const auto& id : *ids) {
+        if (!id.is_number_unsigned() || id.get<std::uint64_t>() > 0xffffffffu) malformed("a body id is not a u32");
+        b.ids.push_back(static_cast<std::uint32_t>(id.get<std::uint64_t>()));
+      }
+      d.bodies.push_back(std::move(b));
+    }
+  }
   return d;
 }
 
 }  // namespace
 
+bool valid_body_name(const std::string& name) { return !name.empty() && valid_name(name); }
+
+std::string unsupported_version_message(unsigned version) {
+  return "ipsd stream version " + std::to_string(version) +
+         (version == IPS_WIRE_VERSION_2 ? " (rigid bodies)" : "") + ": this client reads versions 1 and 2; update it";
+}
+
 std::vector<std::uint8_t> encode_binary(const Datagram& d) {
   if (d.markers.size() > 0xffff) throw std::length_error("encode_binary: more than 65535 markers");
+  if (d.bodies.size() > 0xffff) throw std::length_error("encode_binary: more than 65535 bodies");
+  const bool v2 = d.version == IPS_WIRE_VERSION_2;
+  if (!v2 && !d.bodies.empty()) throw std::invalid_argument("encode_binary: bodies need protocol version 2");
+  for (const BodyRecord& b : d.bodies)
+    if (!valid_name(b.name)) throw std::invalid_argument("encode_binary: body name '" + b.name + "' does not fit the wire");
   const std::size_t rs = record_size(d.has_velocity);
-  std::vector<std::uint8_t> out(IPS_WIRE_HEADER_SIZE + d.markers.size() * rs, 0);
+  const std::size_t markers_end = IPS_WIRE_HEADER_SIZE + d.markers.size() * rs;
+  std::vector<std::uint8_t> out(
+      markers_end + (v2 ? IPS_WIRE_BODY_SECTION_SIZE + d.bodies.size() * IPS_WIRE_BODY_RECORD_SIZE : 0), 0);
   std::uint8_t* p = out.data();
   if (p == nullptr) throw std::logic_error("encode_binary: allocation");  // never: size >= 48
   p[0] = IPS_WIRE_MAGIC_0;
@@ -208,6 +322,33 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
       ips_wire_put_f32(r + IPS_WIRE_REC_VZ, static_cast<float>(m.vz));
     }
   }
+  if (v2) {
+    std::uint8_t* sec = p + markers_end;
+    ips_wire_put_u16(sec, static_cast<std::uint16_t>(d.bodies.size()));
+    ips_wire_put_u16(sec + 2, static_cast<std::uint16_t>(IPS_WIRE_BODY_RECORD_SIZE));
+    for (std::size_t i = 0; i < d.bodies.size(); ++i) {
+      const BodyRecord& b = d.bodies[i];
+      std::uint8_t* r = sec + IPS_WIRE_BODY_SECTION_SIZE + i * IPS_WIRE_BODY_RECORD_SIZE;
+      std::memcpy(r + IPS_WIRE_BODY_NAME, b.name.data(), b.name.size());  // the rest stays NUL
+      ips_wire_put_u32(r + IPS_WIRE_BODY_CAMERA_MASK, b.camera_mask);
+      ips_wire_put_f32(r + IPS_WIRE_BODY_X, static_cast<float>(b.x));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_Y, static_cast<float>(b.y));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_Z, static_cast<float>(b.z));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_YAW, static_cast<float>(b.yaw));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_QW, static_cast<float>(b.qw));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_QX, static_cast<float>(b.qx));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_QY, static_cast<float>(b.qy));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_QZ, static_cast<float>(b.qz));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_QUALITY, static_cast<float>(b.quality));
+      ips_wire_put_f32(r + IPS_WIRE_BODY_SPREAD, static_cast<float>(b.spread));
+      ips_wire_put_i32(r + IPS_WIRE_BODY_DT_US, b.dt_us);
+      ips_wire_put_u16(r + IPS_WIRE_BODY_FLAGS, b.has_yaw ? IPS_WIRE_BODY_HAS_YAW : 0);
+      const std::size_t count = std::min<std::size_t>(std::max<std::size_t>(b.id_count, b.ids.size()), 0xffff);
+      ips_wire_put_u16(r + IPS_WIRE_BODY_ID_COUNT, static_cast<std::uint16_t>(count));
+      for (std::size_t k = 0; k < b.ids.size() && k < IPS_WIRE_BODY_MAX_IDS; ++k)
+        ips_wire_put_u32(r + IPS_WIRE_BODY_IDS + 4 * k, b.ids[k]);
+    }
+  }
   return out;
 }
 
@@ -228,7 +369,18 @@ std::string encode_json(const Datagram& d) {
     if (i) out.push_back(',');
     append_marker_json(out, d.markers[i], d.has_velocity);
   }
-  out.append("]}\n");
+  out.push_back(']');
+  if (d.version == IPS_WIRE_VERSION_2) {
+    out.append(",\"bodies\":[");
+    for (std::size_t i = 0; i < d.bodies.size(); ++i) {
+      if (i) out.push_back(',');
+      append_body_json(out, d.bodies[i]);
+    }
+    out.push_back(']');
+  } else if (!d.bodies.empty()) {
+    throw std::invalid_argument("encode_json: bodies need protocol version 2");
+  }
+  out.append("}\n");
   return out;
 }
 
@@ -242,13 +394,16 @@ std::vector<Datagram> split_update(const Datagram& update, WireFormat format) {
   std::vector<Datagram> parts;
   Datagram shell = update;
   shell.markers.clear();
+  shell.bodies.clear();
   // Worst-case header: every counter at its widest, so the final numbers can only shrink it.
   Datagram widest = shell;
   widest.sequence = 0xffffffffu;
   widest.update = 0xffffffffu;
   widest.part = widest.parts = 255;
+  const bool v2 = update.version == IPS_WIRE_VERSION_2;
   const std::size_t header_bytes =
-      format == WireFormat::kBinary ? IPS_WIRE_HEADER_SIZE : encode_json(widest).size();
+      format == WireFormat::kBinary ? IPS_WIRE_HEADER_SIZE + (v2 ? IPS_WIRE_BODY_SECTION_SIZE : 0)
+                                    : encode_json(widest).size();
   const std::size_t budget = IPS_WIRE_MAX_DATAGRAM;
 
   Datagram current = shell;
@@ -268,6 +423,21 @@ std::vector<Datagram> split_update(const Datagram& update, WireFormat format) {
       used = header_bytes;
     }
     current.markers.push_back(m);
+    used += bytes;
+  }
+  for (const BodyRecord& b : update.bodies) {
+    std::size_t bytes = IPS_WIRE_BODY_RECORD_SIZE;
+    if (format == WireFormat::kJson) {
+      std::string s;
+      append_body_json(s, b);
+      bytes = s.size() + 1;
+    }
+    if (used + bytes > budget && (!current.markers.empty() || !current.bodies.empty())) {
+      parts.push_back(std::move(current));
+      current = shell;
+      used = header_bytes;
+    }
+    current.bodies.push_back(b);
     used += bytes;
   }
   parts.push_back(std::move(current));

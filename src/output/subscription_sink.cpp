@@ -243,7 +243,13 @@ void SubscriptionSink::publish(const Datagram& update) {
     auto& s = entry.second;
     Datagram mine = update;
     // Init-capture: clang 14 cannot capture a structured binding itself.
-    if (!s.all) std::erase_if(mine.markers, [&ids = s.ids](const MarkerRecord& m) { return !ids.count(m.id); });
+    if (!s.all) {
+      std::erase_if(mine.markers, [&ids = s.ids](const MarkerRecord& m) { return !ids.count(m.id); });
+      // A body goes to whoever asked for one of the marker ids listed in its record.
+      std::erase_if(mine.bodies, [&ids = s.ids](const BodyRecord& b) {
+        return std::none_of(b.ids.begin(), b.ids.end(), [&](std::uint32_t id) { return ids.count(id) > 0; });
+      });
+    }
     for (Datagram& d : split_update(mine, s.format)) {
       d.sequence = s.sequence++;
       d.publish_realtime_ns = realtime_ns();

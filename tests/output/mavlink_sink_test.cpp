@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <numbers>
@@ -238,6 +239,47 @@ TEST(MavlinkSink, RateLimitResetCounterAndOneHeartbeatPerSecond) {
   EXPECT_EQ(s.send_errors, 0u);
   EXPECT_GT(s.bytes, 0u);
   EXPECT_EQ(s.description, "mavlink 127.0.0.1:" + std::to_string(rx.port) + " (1 vehicle(s))");
+}
+
+TEST(MavlinkSink, AVehicleWhoseMarkerIsOnABodyGetsTheBodysPose) {
+  support::UdpReceiver rx;
+  OutputConfig config = mavlink_to(rx.port);
+  config.mavlink.vehicles.resize(1);  // marker 3
+  config.mavlink.odometry = false;
+  auto sink = make_output_sink(config, 0);
+  Datagram d;
+  d.version = 2;
+  d.capture_monotonic_ns = 5'000'000'000LL;
+  d.capture_realtime_ns = 1'700'000'000'000'000'000LL;
+  BodyRecord other, mine;
+  other.name = "other";  // lists marker 3 too, but without a yaw: skipped
+  other.ids = {3};
+  other.id_count = 1;
+  other.has_yaw = false;
+  mine.name = "robot";
+  mine.x = 1.5, mine.y = 2.0, mine.z = 0.0, mine.yaw = 0.3;
+  mine.has_yaw = true;
+  mine.ids = {2, 3};
+  mine.id_count = 2;
+  d.bodies = {other, mine};
+  sink->publish(d);
+  // Without a known yaw the body gives the vehicle nothing.
+  d.capture_monotonic_ns += 100'000'000;
+  d.bodies[1].has_yaw = false;
+  sink->publish(d);
+  const MavlinkPose want = lab_to_ned(marker(3, 1.5, 2.0, 0.0, 0.3), 30 * kDeg, 0.0);
+  int poses_seen = 0;
+  for (const auto& f : drain(rx)) {
+    const FrameHead h = head(f);
+    if (h.msgid != mavlink::kMsgVisionPositionEstimate) continue;
+    ++poses_seen;
+    float x = 0, y = 0;
+    std::memcpy(&x, h.payload.data() + 8, 4);  // usec u64, then x, y, z, roll, pitch, yaw (f32)
+    std::memcpy(&y, h.payload.data() + 12, 4);
+    EXPECT_FLOAT_EQ(x, static_cast<float>(want.n));
+    EXPECT_FLOAT_EQ(y, static_cast<float>(want.e));
+  }
+  EXPECT_EQ(poses_seen, 1);
 }
 
 }  // namespace

@@ -195,8 +195,11 @@ TEST(PacketCodec, MalformedDatagramsAreRefusedWithAReason) {
   bad[0] = 'X';
   expect_refused(bad, "bad magic");
   bad = good;
-  bad[4] = 2;
-  expect_refused(bad, "version 2");
+  bad[4] = 3;
+  expect_refused(bad, "ipsd stream version 3: this client reads versions 1 and 2; update it");
+  bad = good;
+  bad[4] = 2;  // version 2 needs its body section
+  expect_refused(bad, "+ the body section");
   bad = good;
   bad.pop_back();
   expect_refused(bad, "does not match");

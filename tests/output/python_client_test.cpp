@@ -63,5 +63,62 @@ TEST(PythonClient, DecodesTheBinaryFormLikeTheCppDecoder) {
   EXPECT_DOUBLE_EQ(j["markers"][0]["vx"].get<double>(), 0.75);
 }
 
+TEST(PythonClient, DecodesVersion2Bodies) {
+  if (std::system("python3 -c 'import struct' >/dev/null 2>&1") != 0) GTEST_SKIP() << "no python3";
+  Datagram d;
+  d.version = 2;
+  d.sequence = 3;
+  MarkerRecord m;
+  m.id = 4;
+  m.x = 0.5;
+  d.markers = {m};
+  BodyRecord b;
+  b.name = "tb3";
+  b.camera_mask = 3;
+  b.x = 1.25;
+  b.y = -2.5;
+  b.yaw = 0.75;
+  b.qw = 0.5;
+  b.qz = -0.5;
+  b.has_yaw = true;
+  b.dt_us = -40;
+  b.id_count = 5;
+  b.ids = {1, 2, 3, 9};
+  d.bodies = {b};
+  const auto bytes = encode_binary(d);
+  const auto file = std::filesystem::temp_directory_path() / ("ips_py2_" + std::to_string(::getpid()) + ".bin");
+  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                              static_cast<std::streamsize>(bytes.size()));
+  const std::string out = run("python3 -c \"import sys, json; sys.path.insert(0, '" IPS_SOURCE_DIR
+                              "/tools'); import ipsd_client as c; print(json.dumps(c.decode(open('" +
+                              file.string() + "', 'rb').read())))\"");
+  std::filesystem::remove(file);
+  const auto j = nlohmann::json::parse(out);
+  EXPECT_EQ(j["version"], 2);
+  ASSERT_EQ(j["markers"].size(), 1u);
+  EXPECT_DOUBLE_EQ(j["markers"][0]["x"].get<double>(), 0.5);
+  ASSERT_EQ(j["bodies"].size(), 1u);
+  const auto& jb = j["bodies"][0];
+  EXPECT_EQ(jb["name"], "tb3");
+  EXPECT_EQ(jb["cameras"], 3);
+  EXPECT_DOUBLE_EQ(jb["x"].get<double>(), 1.25);
+  EXPECT_DOUBLE_EQ(jb["y"].get<double>(), -2.5);
+  EXPECT_DOUBLE_EQ(jb["yaw"].get<double>(), 0.75);
+  EXPECT_DOUBLE_EQ(jb["qz"].get<double>(), -0.5);
+  EXPECT_EQ(jb["has_yaw"], true);
+  EXPECT_EQ(jb["dt_us"], -40);
+  EXPECT_EQ(jb["id_count"], 5);
+  EXPECT_EQ(jb["ids"], nlohmann::json({1, 2, 3, 9}));
+  // And a version it does not read: the clear refusal.
+  auto v3 = bytes;
+  v3[4] = 3;
+  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(v3.data()), static_cast<std::streamsize>(v3.size()));
+  const std::string refused = run("python3 -c \"import sys; sys.path.insert(0, '" IPS_SOURCE_DIR
+                                  "/tools'); import ipsd_client as c\ntry: c.decode(open('" +
+                                  file.string() + "', 'rb').read())\nexcept c.Malformed as e: print(e)\"");
+  std::filesystem::remove(file);
+  EXPECT_EQ(refused, "ipsd stream version 3: this client reads versions 1 and 2; update it\n");
+}
+
 }  // namespace
 }  // namespace ips

@@ -1,0 +1,72 @@
+// Asynchronous fusion of rigid bodies (the daemon's, like ips/track_fusion.h for markers):
+// each camera frame's body observations (ips/body_estimate.h) produce at once one pose per
+// body that frame saw, at that frame's capture time T, fused over all the body's markers and
+// every camera that saw it within `window_s` before T. Another camera's older views are moved
+// forward to T by the body's own velocity (from its recent published positions), then the
+// views of the instant go through BodyEstimator::fuse (cube faces told apart, baseline yaw,
+// the configured method).
+//
+// Order: a body is published only at a capture time >= its last published time; a frame that
+// arrives late (older than that) is merged into the history for later outputs but publishes
+// nothing for that body (counted as `late`). Not thread-safe: owned by the fusion thread.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <span>
+#include <vector>
+
+#include "ips/body_estimate.h"
+
+namespace ips {
+
+struct BodyTrackOptions {
+  double window_s = 0.050;         ///< other cameras' views at most this much older than T are used
+  double history_s = 0.250;        ///< per-camera history kept (the reorder buffer), s
+  double velocity_span_s = 0.200;  ///< the body velocity: its published positions within this span
+};
+
+class BodyTrack {
+ public:
+  BodyTrack(std::vector<BodyDef> bodies, const BodyTrackOptions& options = {});
+
+  const std::vector<BodyDef>& bodies() const { return estimator_.bodies(); }
+
+  /// One camera frame's body observations, all captured at t_mono_ns by `camera_index`.
+  /// Appends the fused pose at t_mono_ns of every body the frame saw that may be published
+  /// (see "Order"), sorted by body index.
+  void add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_real_ns,
+           std::span<const BodyObservation> observations, const FusionMethod& method, std::vector<FusedBody>& out);
+
+  /// Fixed-rate output: every body's newest pose if it is at most history_s older than
+  /// t_mono_ns (its own capture time stays; it never goes back).
+  void latest(std::int64_t t_mono_ns, std::vector<FusedBody>& out) const;
+
+  std::uint64_t late() const { return late_; }
+
+  /// Takes over `previous`'s last published pose of every body of the same name (a reload:
+  /// each body's stream keeps never going back in time).
+  void continue_after(const BodyTrack& previous);
+
+ private:
+  struct Frame {
+    std::int64_t t_ns = 0;
+    std::vector<BodyObservation> views;
+  };
+  struct Track {
+    std::map<int, std::deque<Frame>> by_camera;  // time-ordered per camera
+    std::int64_t newest_ns = 0;
+    bool published = false;
+    FusedBody last;                              // the last published pose
+    std::deque<std::pair<std::int64_t, Eigen::Vector3d>> path;  // recent published positions
+  };
+  Eigen::Vector3d velocity(const Track& track) const;
+
+  BodyEstimator estimator_;
+  BodyTrackOptions options_;
+  std::vector<Track> tracks_;
+  std::uint64_t late_ = 0;
+};
+
+}  // namespace ips

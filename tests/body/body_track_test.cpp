@@ -1,0 +1,120 @@
+// The daemon's asynchronous body fusion (ips/body_track.h) on hand-made views: one pose per
+// frame at the frame's time, other cameras' older views moved forward by the body's velocity,
+// and a body's stream never going back in time.
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "ips/body_track.h"
+
+namespace ips {
+namespace {
+
+// A ground robot with two flat markers 40 cm apart along its x axis.
+std::vector<BodyDef> two_marker_robot() {
+  BodyDef b;
+  b.name = "long";
+  b.markers = {flat_marker(7, 0.1, {0.2, 0, 0.25}, 0.0), flat_marker(8, 0.1, {-0.2, 0, 0.25}, 0.0)};
+  return {b};
+}
+
+// What a camera would report for marker `face` of the robot at (x, y), heading 0.
+BodyObservation view(int camera, int face, double x, double y, std::int64_t t_ns) {
+  BodyObservation o;
+  o.body = 0;
+  o.id = face == 0 ? 7 : 8;
+  o.camera_index = camera;
+  o.face = FaceClass::kUp;
+  o.faces = {face};
+  o.yaws = {0.0};
+  o.qs = {Eigen::Quaterniond::Identity()};
+  o.positions = {Eigen::Vector3d(x, y, 0)};
+  o.marker_centre = Eigen::Vector3d(x + (face == 0 ? 0.2 : -0.2), y, 0.25);
+  o.area_px = 900;
+  o.t_mono_ns = o.t_real_ns = t_ns;
+  return o;
+}
+
+const FusionMethod& mean() { return find_fusion_method("mean", "test"); }
+
+TEST(BodyTrack, OnePoseAtTheFrameTimeFromTheMarkersOfSeveralCameras) {
+  BodyTrack track(two_marker_robot());
+  std::vector<FusedBody> out;
+  // Camera 0 sees marker 7 at t = 0; camera 1 sees marker 8 at t = 0 too: the baseline gives yaw.
+  const std::vector<BodyObservation> a{view(0, 0, 1.0, 2.0, 0)};
+  track.add(0, 0, 0, a, mean(), out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].marker_ids, std::vector<int>{7});
+  out.clear();
+  const std::vector<BodyObservation> b{view(1, 1, 1.0, 2.0, 0)};
+  track.add(1, 0, 0, b, mean(), out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].name, "long");
+  EXPECT_EQ(out[0].marker_ids, (std::vector<int>{7, 8}));
+  EXPECT_EQ(out[0].camera_mask, 3u);
+  EXPECT_NEAR(out[0].pose.position.x(), 1.0, 1e-9);
+  EXPECT_NEAR(out[0].pose.position.y(), 2.0, 1e-9);
+  EXPECT_TRUE(out[0].has_yaw);
+  EXPECT_NEAR(out[0].pose.yaw, 0.0, 1e-9);
+}
+
+TEST(BodyTrack, OtherCamerasViewsAreMovedForwardByTheBodysVelocity) {
+  BodyTrack track(two_marker_robot());
+  std::vector<FusedBody> out;
+  // The robot drives along +x at 1 m/s; camera 0 sees it every 20 ms, giving the velocity.
+  for (int k = 0; k <= 5; ++k) {
+    const std::int64_t t = k * 20'000'000LL;
+    const std::vector<BodyObservation> v{view(0, 0, 0.02 * k, 0.0, t)};
+    track.add(0, t, t, v, mean(), out);
+  }
+  // Camera 1 reports marker 8 at t = 110 ms (x = 0.11); at t = 120 ms camera 0's marker 7
+  // (x = 0.12) is fused with camera 1's view moved 10 ms forward (x = 0.12, not 0.11).
+  out.clear();
+  const std::vector<BodyObservation> c1{view(1, 1, 0.11, 0.0, 110'000'000)};
+  track.add(1, 110'000'000, 110'000'000, c1, mean(), out);
+  out.clear();
+  const std::vector<BodyObservation> c0{view(0, 0, 0.12, 0.0, 120'000'000)};
+  track.add(0, 120'000'000, 120'000'000, c0, mean(), out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].camera_mask, 3u);
+  EXPECT_EQ(out[0].t_mono_ns, 120'000'000);
+  EXPECT_NEAR(out[0].pose.position.x(), 0.12, 1e-6);
+  EXPECT_NEAR(out[0].pose.yaw, 0.0, 1e-6);
+}
+
+TEST(BodyTrack, ALateFrameIsMergedButNeverPublishedBackInTime) {
+  BodyTrack track(two_marker_robot());
+  std::vector<FusedBody> out;
+  const std::vector<BodyObservation> now{view(0, 0, 1.0, 1.0, 100'000'000)};
+  track.add(0, 100'000'000, 100'000'000, now, mean(), out);
+  ASSERT_EQ(out.size(), 1u);
+  out.clear();
+  const std::vector<BodyObservation> late{view(1, 1, 1.0, 1.0, 90'000'000)};
+  track.add(1, 90'000'000, 90'000'000, late, mean(), out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(track.late(), 1u);
+  // The late view still counts for the next output within the window.
+  const std::vector<BodyObservation> next{view(0, 0, 1.0, 1.0, 120'000'000)};
+  track.add(0, 120'000'000, 120'000'000, next, mean(), out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].marker_ids, (std::vector<int>{7, 8}));
+  // Fixed-rate output: the newest pose, at its own time.
+  std::vector<FusedBody> latest;
+  track.latest(150'000'000, latest);
+  ASSERT_EQ(latest.size(), 1u);
+  EXPECT_EQ(latest[0].t_mono_ns, 120'000'000);
+  latest.clear();
+  track.latest(120'000'000 + 300'000'000, latest);  // older than history_s: gone
+  EXPECT_TRUE(latest.empty());
+  // A reload keeps the order: the new track publishes nothing older than 120 ms.
+  BodyTrack fresh(two_marker_robot());
+  fresh.continue_after(track);
+  out.clear();
+  const std::vector<BodyObservation> old{view(0, 0, 1.0, 1.0, 110'000'000)};
+  fresh.add(0, 110'000'000, 110'000'000, old, mean(), out);
+  EXPECT_TRUE(out.empty());
+}
+
+}  // namespace
+}  // namespace ips
