@@ -276,7 +276,7 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
       {"bad_quality.yaml", cam + "render: {jpeg_quality: 101}\n", "render.jpeg_quality"},
       // Numbers beyond the integer's range were cast undefinedly (found by fuzz_scene,
       // tests/fuzz/scene/floor_seed_overflow.yaml).
-      {"big_seed.yaml", cam + "floor:\n  seed: 1e49\n", "big_seed.yaml:5: floor.seed: must be an integer in 0..4294967295"},
+      {"big_seed.yaml", cam + "floor:\n  seed: 1e49\n", "big_seed.yaml:6: floor.seed: must be an integer in 0..4294967295"},
       {"big_render_seed.yaml", cam + "render: {seed: -1}\n", "render.seed: must be an integer"},
       {"big_supersample.yaml", cam + "render: {supersample: 1e300}\n", "render.supersample: must be an integer in 1..8"},
       {"big_id.yaml", cam + "markers:\n  - {id: 1e300, x: 1, y: 1}\n", "markers[0].id"},
