@@ -1,6 +1,6 @@
 // Camera intrinsics files, both forms CameraModel::load reads: the ipsd YAML form (model,
-// image_width, image_height, K, D) and OpenCV FileStorage files (%YAML:1.0 or XML; a text
-// starting with '{' is written as .json, which also goes to FileStorage). A file loads or
+// image_width, image_height, K, D) and OpenCV FileStorage files (%YAML:1.0, read by yaml-cpp;
+// XML, and a text starting with '{' written as .json, read by FileStorage). A file loads or
 // throws ips::InputError; a loaded model then maps pixels both ways without faults or hangs.
 #include <cstddef>
 #include <cstdint>

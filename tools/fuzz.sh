@@ -32,15 +32,19 @@ run_one() {  # target
   [[ -d $ROOT/tests/fuzz/$t ]] && dirs+=("$ROOT/tests/fuzz/$t")
   local dict=()
   [[ -f $ROOT/fuzz/dict/$t.dict ]] && dict=("-dict=$ROOT/fuzz/dict/$t.dict")
+  echo "start: $(uptime)" >"$dir/log"
   nice -n "$NICE" "$BUILD/fuzz/fuzz_$t" -max_total_time="$SECONDS_EACH" -timeout=20 -rss_limit_mb=2560 \
-    -print_final_stats=1 "${dict[@]}" -artifact_prefix="$dir/artifacts/" "${dirs[@]}" >"$dir/log" 2>&1 || true
+    -print_final_stats=1 "${dict[@]}" -artifact_prefix="$dir/artifacts/" "${dirs[@]}" >>"$dir/log" 2>&1 || true
+  echo "end: $(uptime)" >>"$dir/log"
 }
 export -f run_one
 export ROOT BUILD WORK SECONDS_EACH NICE
 echo "fuzzing $(echo $TARGETS | wc -w) targets for ${SECONDS_EACH} s each, $PARALLEL at a time (logs in $WORK/<target>/log)"
+echo "load at start: $(uptime)"
 printf '%s\n' $TARGETS | xargs -P "$PARALLEL" -I{} bash -c 'run_one {}'
+echo "load at end:   $(uptime)"
 
-printf '\n%-14s %14s %8s %8s %9s %s\n' target executions cov ft corpus findings
+printf '\n%-14s %14s %8s %8s %8s %9s %s\n' target executions exec/s cov ft corpus findings
 status=0
 for t in $TARGETS; do
   dir=$WORK/$t
@@ -55,6 +59,7 @@ for t in $TARGETS; do
     findings+=("tests/fuzz/$t/$(basename "$f")")
     status=1
   done
-  printf '%-14s %14s %8s %8s %9s %s\n' "$t" "${execs:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" "${findings[*]:-none}"
+  rate=$( (grep -o 'stat::average_exec_per_sec: *[0-9]*' "$dir/log" || true) | grep -o '[0-9]*$' | tail -1)
+  printf '%-14s %14s %8s %8s %8s %9s %s\n' "$t" "${execs:-?}" "${rate:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" "${findings[*]:-none}"
 done
 exit $status

@@ -14,6 +14,7 @@
 #include <yaml-cpp/yaml.h>
 #include <opencv2/calib3d.hpp>
 
+#include "geometry/opencv_yaml.h"
 #include "ips/error.h"
 
 namespace ips {
@@ -111,6 +112,14 @@ CameraModel load_ipsd_yaml(const std::string& where, const YAML::Node& root) {
   return CameraModel(kind, {w, h}, K, d);
 }
 
+// validate() says 'K' and 'D': name the keys as they appear in an OpenCV file instead.
+std::string rename_keys(std::string msg, const std::string& k_key, const std::string& d_key) {
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"K", k_key}, {"D", d_key}}) {
+    if (auto p = msg.find("'" + from + "'"); p != std::string::npos) msg.replace(p + 1, from.size(), to);
+  }
+  return msg;
+}
+
 // --- OpenCV FileStorage calibration files (calibration samples, calibrateCamera) -----
 cv::FileNode first_of(const cv::FileStorage& fs, std::initializer_list<const char*> keys,
                       std::string& used) {
@@ -193,17 +202,24 @@ CameraModel load_opencv_storage(const std::string& where, const std::filesystem:
   try {
     validate(where, kind, {w, h}, K, D);
   } catch (const InputError& e) {
-    // Name the key as it appears in this file.
-    std::string msg = e.what();
-    auto rename = [&](const std::string& from, const std::string& to) {
-      if (auto p = msg.find("'" + from + "'"); p != std::string::npos)
-        msg.replace(p + 1, from.size(), to);
-    };
-    rename("K", kkey);
-    rename("D", dkey);
-    throw InputError(msg);
+    throw InputError(rename_keys(e.what(), kkey, dkey));
   }
   return CameraModel(kind, {w, h}, K, D);
+}
+
+// OpenCV's YAML form, parsed by yaml-cpp (geometry/opencv_yaml.h); the model's rules here.
+CameraModel load_opencv_yaml(const std::string& where, const YAML::Node& root) {
+  const detail::OpenCvIntrinsics raw = detail::read_opencv_intrinsics(where, root);
+  CameraModel::Kind kind = raw.fisheye ? CameraModel::Kind::kFisheye : CameraModel::Kind::kPinhole;
+  if (!raw.model.empty()) kind = parse_kind(where, raw.model);
+  cv::Matx33d K;
+  for (int i = 0; i < 9; ++i) K.val[i] = raw.K[static_cast<std::size_t>(i)];
+  try {
+    validate(where, kind, {raw.width, raw.height}, K, raw.D);
+  } catch (const InputError& e) {
+    throw InputError(rename_keys(e.what(), raw.k_key, raw.d_key));
+  }
+  return CameraModel(kind, {raw.width, raw.height}, K, raw.D);
 }
 
 }  // namespace
@@ -237,10 +253,12 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
   std::stringstream text;
   text << in.rdbuf();
   const std::string s = text.str();
-  // OpenCV's own files start with "%YAML:1.0" (which yaml-cpp rejects) or are XML/JSON.
-  const bool opencv_form = s.rfind("%YAML:1.", 0) == 0 ||
-                           s.find("<opencv_storage>") != std::string::npos ||
-                           path.extension() == ".xml" || path.extension() == ".json";
+  // OpenCV's own files start with "%YAML:1.0" (which yaml-cpp rejects) or are XML/JSON. Only
+  // XML and JSON go to OpenCV's FileStorage, which picks its parser by the first characters
+  // ('<', '{', "%YAML"): its YAML parser never gets a file.
+  const auto first = s.find_first_not_of(" \t\r\n");
+  const char lead = first == std::string::npos ? '\0' : s[first];
+  const bool opencv_form = lead == '<' || (lead == '{' && path.extension() == ".json");
   // OpenCV throws cv::Exception for files it opens but cannot navigate (a top-level sequence,
   // a scalar where a map is expected): bad input, said as such (found by fuzz_intrinsics).
   auto opencv = [&] {
@@ -250,34 +268,8 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
       throw InputError(where + ": not an OpenCV calibration file (" + e.err + ")");
     }
   };
-  if (opencv_form && s.rfind("%YAML:1.", 0) == 0) {
-    // OpenCV 4.6's YAML reader ends the process (std::terminate from inside FileStorage::open,
-    // uncatchable) on a nested key that starts with ':', and loops forever on a '%' line after
-    // the first (both found by fuzz_intrinsics): refuse such lines before OpenCV sees them. No
-    // OpenCV-written file has one.
-    std::istringstream lines(s);
-    std::string line;
-    for (int n = 1; std::getline(lines, line); ++n) {
-      const auto first = line.find_first_not_of(" \t");
-      if (first != std::string::npos && line[first] == ':')
-        throw InputError(where + ":" + std::to_string(n) + ": a key starting with ':' (not an OpenCV calibration file)");
-      if (n > 1 && first != std::string::npos && line[first] == '%')
-        throw InputError(where + ":" + std::to_string(n) + ": a '%' directive after the first line (not an OpenCV calibration file)");
-    }
-    // It also loops forever on other garbage (fuzz_intrinsics): it only gets text that is one
-    // well-formed YAML mapping to yaml-cpp after the directive line, as every file OpenCV
-    // writes is. (A guard, not a proof: OpenCV's reader is still the one that reads the file.)
-    const auto body = s.find('\n');
-    std::vector<YAML::Node> docs;
-    try {
-      docs = YAML::LoadAll(body == std::string::npos ? std::string() : s.substr(body + 1));
-    } catch (const YAML::Exception& e) {
-      throw InputError(where + ":" + std::to_string(e.mark.line + 2) + ": YAML error: " + e.msg +
-                       " (not an OpenCV calibration file)");
-    }
-    if (docs.size() != 1 || !docs[0].IsMap())
-      throw InputError(where + ": expected one YAML mapping after %YAML:1.0 (not an OpenCV calibration file)");
-  }
+  // OpenCV's YAML form: read by yaml-cpp, never by OpenCV (see geometry/opencv_yaml.h).
+  if (s.rfind("%YAML:", 0) == 0) return load_opencv_yaml(where, detail::parse_opencv_yaml(where, s));
   if (opencv_form) return opencv();
   YAML::Node root;
   try {
@@ -286,7 +278,7 @@ CameraModel CameraModel::load(const std::filesystem::path& path) {
     throw InputError(where + ":" + std::to_string(e.mark.line + 1) + ": YAML error: " + e.msg);
   }
   if (!root.IsMap()) throw InputError(where + ": expected a YAML mapping of intrinsics keys");
-  if (!root["K"] && (root["camera_matrix"] || root["mtx"])) return opencv();
+  if (!root["K"] && (root["camera_matrix"] || root["mtx"])) return load_opencv_yaml(where, root);
   return load_ipsd_yaml(where, root);
 }
 

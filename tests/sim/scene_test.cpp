@@ -274,6 +274,12 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
       {"bad_id.yaml", cam + "markers:\n  - {id: 100, x: 1, y: 1}\n", "markers[0].id"},
       {"bad_dict.yaml", "dictionary: DICT_9X9\n" + cam, "dictionary"},
       {"bad_quality.yaml", cam + "render: {jpeg_quality: 101}\n", "render.jpeg_quality"},
+      // Numbers beyond the integer's range were cast undefinedly (found by fuzz_scene,
+      // tests/fuzz/scene/floor_seed_overflow.yaml).
+      {"big_seed.yaml", cam + "floor:\n  seed: 1e49\n", "big_seed.yaml:6: floor.seed: must be an integer in 0..4294967295"},
+      {"big_render_seed.yaml", cam + "render: {seed: -1}\n", "render.seed: must be an integer"},
+      {"big_supersample.yaml", cam + "render: {supersample: 1e300}\n", "render.supersample: must be an integer in 1..8"},
+      {"big_id.yaml", cam + "markers:\n  - {id: 1e300, x: 1, y: 1}\n", "markers[0].id"},
       {"broken.yaml", cam + "markers: [\n", "YAML"},
       {"no_control.yaml",
        cam + "markers:\n  - {id: 1, trajectory: {type: placements, points: [[1, 1]]}}\n",
