@@ -35,7 +35,6 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <iterator>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -65,7 +64,8 @@ void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<doubl
 // The niceness a process runs at (/proc/PID/stat field 19); nullopt if it cannot be read.
 std::optional<int> process_nice(pid_t pid) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string stat;
+  std::getline(in, stat);  // one line
   const auto paren = stat.rfind(')');
   if (paren == std::string::npos) return std::nullopt;
   std::istringstream fields(stat.substr(paren + 2));  // field 3 (state) onwards
