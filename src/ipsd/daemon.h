@@ -57,6 +57,7 @@ class Daemon {
   std::int64_t next_sample_ns_ = 0;
   std::int64_t next_status_log_ns_ = 0;
   std::int64_t next_watchdog_ns_ = 0;
+  std::int64_t next_trim_ns_ = 0;  // malloc_trim period (daemon.cpp, kTrimNs)
   std::uint64_t watchdog_usec_ = 0;
   bool stalled_ = false;
 };

@@ -53,6 +53,8 @@ class Report {
   }
   void add_fault(const Fault& f) { faults_.push_back(f); }
   const std::vector<Fault>& faults() const { return faults_; }
+  /// The niceness asked for (bench_soak --nice) and the one ipsd had (nullopt: unknown).
+  void set_nice(int asked, std::optional<int> actual) { nice_asked_ = asked, nice_actual_ = actual; }
   void set_recovery(std::size_t i, const RecoveryProbe& p) { faults_[i].recovered_ns = p.recovered_ns(); }
 
   void finish(std::int64_t t_end, bool died, std::optional<int> exit_status, const StreamMonitor::Totals& totals,
@@ -100,7 +102,8 @@ class Report {
     using nlohmann::json;
     json j;
     j["parameters"] = {{"seconds", seconds_}, {"fps", fps_}, {"fault_period_s", period_}, {"gap_threshold_s", gap_s_},
-                       {"watchdog_usec", static_cast<long long>(watchdog_s_ * 1e6)}, {"cameras", cameras_}};
+                       {"watchdog_usec", static_cast<long long>(watchdog_s_ * 1e6)}, {"cameras", cameras_},
+                       {"nice_asked", nice_asked_}, {"ipsd_nice", nice_actual_ ? json(*nice_actual_) : json(nullptr)}};
     j["measured_s"] = 1e-9 * static_cast<double>(t_end_ - t0_);
     j["passed"] = passed();
     j["crashes"] = died_ ? 1 : 0;
@@ -158,6 +161,7 @@ class Report {
     for (const auto& s : samples_) lmin = std::min(lmin, s.load), lmax = std::max(lmax, s.load), lsum += s.load;
     add("load average (1 min) over the run: min %.2f, mean %.2f, max %.2f (2 cores, shared)\n", lmin,
         samples_.empty() ? 0.0 : lsum / static_cast<double>(samples_.size()), lmax);
+    add("ipsd niceness: %s (asked %d)\n", nice_actual_ ? std::to_string(*nice_actual_).c_str() : "unknown", nice_asked_);
     add("crashes: %d; exit status after SIGTERM: %s; sanitizer reports: %d\n", died_ ? 1 : 0,
         exit_status_ ? std::to_string(*exit_status_).c_str() : "none (still running)", sanitizer_lines_);
     if (!samples_.empty())
@@ -284,6 +288,8 @@ class Report {
 
   double seconds_, fps_, period_, gap_s_, watchdog_s_;
   int cameras_;
+  int nice_asked_ = 0;
+  std::optional<int> nice_actual_;
   std::int64_t t0_ = 0, t_end_ = 0;
   mutable std::mutex mutex_;
   std::vector<Sample> samples_;
