@@ -23,7 +23,6 @@
 #include "../daemon/process_util.h"
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
-#include "release_only.h"
 
 namespace {
 
