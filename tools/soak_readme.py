@@ -11,8 +11,8 @@ nice = j['parameters'].get('ipsd_nice')
 prio = ('ipsd at normal priority' if nice in (None, 0) else
         f"ipsd at nice {nice} (bench_soak --nice, as the packaged unit's Nice=)")
 print(f"Measured {j['measured_s']:.0f} s, {len(faults)} faults, load average (1 min) over the run "
-      f"{min(loads):.1f}–{max(loads):.1f} (mean {statistics.mean(loads):.1f}) on this 2-core machine shared with "
-      f"four other engineers' builds; {prio}. Result: **{'PASSED' if j['passed'] else 'FAILED'}** (bench_soak's verdict).")
+      f"{min(loads):.1f}–{max(loads):.1f} (mean {statistics.mean(loads):.1f}) on this 2-core machine "
+      f"(what else ran: see the run's notes); {prio}. Result: **{'PASSED' if j['passed'] else 'FAILED'}** (bench_soak's verdict).")
 print()
 print("| figure | value |\n|---|---|")
 print(f"| crashes | {j['crashes']} (exit status after SIGTERM {j['exit_status']}) |")
