@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "ips/error.h"
+#include "load_error.h"
 
 namespace fs = std::filesystem;
 
@@ -24,15 +25,7 @@ fs::path write_temp(const std::string& name, const std::string& text) {
   return p;
 }
 
-std::string expect_input_error(const fs::path& p) {
-  try {
-    ips::CameraModel::load(p);
-  } catch (const ips::InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError for " << p;
-  return {};
-}
+std::string expect_input_error(const fs::path& p) { return ips::test::camera_model_load_error(p); }
 
 TEST(CameraModel, LoadsShippedIntrinsics) {
   const auto cam = ips::CameraModel::load(kData / "ou2023/intrinsics_red.yaml");

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "ips/error.h"
+#include "load_error.h"
 
 namespace fs = std::filesystem;
 
@@ -33,15 +34,7 @@ fs::path write_text(const std::string& name, const std::string& text) {
   return p;
 }
 
-std::string input_error(const fs::path& p) {
-  try {
-    ips::CameraModel::load(p);
-  } catch (const ips::InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError for " << p;
-  return {};
-}
+std::string input_error(const fs::path& p) { return ips::test::camera_model_load_error(p); }
 
 // What OpenCV's reader makes of a file OpenCV wrote: K and D as doubles.
 void opencv_reads(const fs::path& p, const char* k_key, const char* d_key, cv::Mat& K, cv::Mat& D) {
