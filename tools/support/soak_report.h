@@ -83,7 +83,18 @@ class Report {
     bool ok = !died_ && exit_status_ == std::optional<int>(0) && unexcused_gaps() == 0 && notify_.missed == 0 &&
               notify_.pings > 0 && sanitizer_lines_ == 0;
     for (const auto& f : faults_) ok = ok && f.recovered_ns != 0 && f.check.find("NO") == std::string::npos;
-    return ok;
+    return ok && memory_flat().value_or(true);
+  }
+
+  // "Flat after warm-up", judged on runs of 30 minutes or more (a shorter trend is mostly the
+  // once-a-minute trim cycle): the least-squares trend after warm-up at most kMaxMemoryTrend.
+  // 10 MiB/h still allows 7 GiB in a month: a run that passes it is flat within what an hour
+  // can measure, not proof of months. nullopt = not judged.
+  static constexpr double kMaxMemoryTrend = 10.0;  // MiB/h
+  std::optional<bool> memory_flat() const {
+    const Memory m = memory();
+    if (seconds_ < 1800 || std::isnan(m.slope)) return std::nullopt;
+    return m.slope <= kMaxMemoryTrend;
   }
 
   void write(const std::filesystem::path& out) const {
@@ -118,7 +129,8 @@ class Report {
     const Memory m = memory();
     j["memory"] = {{"warmup_s", m.warmup_s},      {"rss_mib_after_warmup", m.first},     {"rss_mib_end", m.last},
                    {"rss_mib_min_after_warmup", m.min}, {"rss_mib_max_after_warmup", m.max},
-                   {"slope_mib_per_hour", m.slope}};
+                   {"slope_mib_per_hour", m.slope}, {"max_slope_mib_per_hour", kMaxMemoryTrend},
+                   {"flat", memory_flat() ? json(*memory_flat()) : json(nullptr)}};
     j["per_minute"] = json::array();
     for (const std::size_t i : per_minute()) {
       const Sample& s = samples_[i];
@@ -168,8 +180,9 @@ class Report {
       add("threads start/end: %d / %d; fds start/end: %d / %d\n", samples_.front().proc.threads, samples_.back().proc.threads,
           samples_.front().proc.fds, samples_.back().proc.fds);
     const Memory m = memory();
-    add("resident memory after %.0f s warm-up: %.1f MiB, end %.1f MiB, range %.1f-%.1f MiB, trend %+.2f MiB/h\n", m.warmup_s,
-        m.first, m.last, m.min, m.max, m.slope);
+    add("resident memory after %.0f s warm-up: %.1f MiB, end %.1f MiB, range %.1f-%.1f MiB, trend %+.2f MiB/h: %s\n",
+        m.warmup_s, m.first, m.last, m.min, m.max, m.slope,
+        !memory_flat() ? "not judged (run < 30 min)" : *memory_flat() ? "flat (<= 10 MiB/h)" : "NOT FLAT (> 10 MiB/h)");
     add("watchdog (WATCHDOG_USEC %.0f s): %llu pings, widest interval %.2f s, missed %llu\n", watchdog_s_,
         static_cast<unsigned long long>(notify_.pings), 1e-9 * static_cast<double>(notify_.widest_ping_interval_ns),
         static_cast<unsigned long long>(notify_.missed));
