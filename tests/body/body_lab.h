@@ -23,6 +23,7 @@
 #include "ips/marker_geometry.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
+#include "../daemon/plane_model.h"
 #include "published_scene.h"
 
 namespace ips::test {
@@ -97,22 +98,8 @@ class BodyLab {
 
  private:
   static std::unique_ptr<Mapper> fit_plane(const sim::CameraRenderer& renderer) {
-    std::mt19937_64 rng(7);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    sim::SceneMarker marker;
-    marker.id = 0;
-    marker.length = 0.20;
-    std::vector<Eigen::Vector3d> cam, world;
-    while (cam.size() < 30) {
-      const sim::MarkerPose pose{0.2 + 4.48 * u(rng), 0.2 + 4.48 * u(rng), 0.2 * u(rng), 6.283 * u(rng)};
-      const sim::MarkerTruth truth = renderer.truth_of(marker, pose);
-      if (!truth.visible) continue;
-      cam.push_back(truth.formula.p_cam);
-      world.emplace_back(pose.x, pose.y, pose.z);
-    }
-    auto m = make_mapper("plane");
-    m->fit(cam, world, FitOptions{});
-    return m;
+    std::mt19937_64 rng(7);  // each camera from the same seed
+    return fit_plane_on_exact_pairs(renderer, rng);
   }
 
   std::shared_ptr<sim::Scene> scene_;

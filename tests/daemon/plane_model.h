@@ -5,6 +5,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -15,28 +16,33 @@
 
 namespace ips::test {
 
+// One camera's `plane` model from 30 exact pairs at random floor poses drawn from `rng`.
+inline std::unique_ptr<Mapper> fit_plane_on_exact_pairs(const sim::CameraRenderer& renderer, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  sim::SceneMarker marker;
+  marker.id = 0;
+  marker.length = 0.20;
+  std::vector<Eigen::Vector3d> cam, world;
+  while (cam.size() < 30) {
+    const sim::MarkerPose pose{0.2 + 4.48 * u(rng), 0.2 + 4.48 * u(rng), 0.2 * u(rng), 6.283 * u(rng)};
+    const sim::MarkerTruth truth = renderer.truth_of(marker, pose);
+    if (!truth.visible) continue;
+    cam.push_back(truth.formula.p_cam);
+    world.emplace_back(pose.x, pose.y, pose.z);
+  }
+  auto mapper = make_mapper("plane");
+  mapper->fit(cam, world, FitOptions{});
+  return mapper;
+}
+
 inline void write_plane_model(const std::filesystem::path& scene_file, const std::filesystem::path& out) {
   const auto scene_model = sim::Scene::load(scene_file);
   ModelSet models;
   std::mt19937_64 rng(7);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
   for (std::size_t c = 0; c < scene_model.cameras.size(); ++c) {
-    const sim::CameraRenderer renderer(scene_model, c);
-    sim::SceneMarker marker;
-    marker.id = 0;
-    marker.length = 0.20;
-    std::vector<Eigen::Vector3d> cam, world;
-    while (cam.size() < 30) {
-      const sim::MarkerPose pose{0.2 + 4.48 * u(rng), 0.2 + 4.48 * u(rng), 0.2 * u(rng), 6.283 * u(rng)};
-      const sim::MarkerTruth truth = renderer.truth_of(marker, pose);
-      if (!truth.visible) continue;
-      cam.push_back(truth.formula.p_cam);
-      world.emplace_back(pose.x, pose.y, pose.z);
-    }
     CameraModelEntry entry;
-    entry.mapper = make_mapper("plane");
-    entry.mapper->fit(cam, world, FitOptions{});
-    entry.training = {{"n", cam.size()}, {"source", "ipsd_test: exact simulated pairs"}};
+    entry.mapper = fit_plane_on_exact_pairs(sim::CameraRenderer(scene_model, c), rng);
+    entry.training = {{"n", 30}, {"source", "ipsd_test: exact simulated pairs"}};
     models.cameras[scene_model.cameras[c].name] = std::move(entry);
   }
   save_model_file(models, out);
