@@ -207,7 +207,9 @@ TEST_F(OutputsIpsdTest, MavlinkMatchesTheStreamAndSubscribersGetTheirOwn) {
       EXPECT_NEAR(test::json_float(f["yaw"]), want.heading, 1e-5);
       // No track restart, unless the sanitizers on a loaded machine starved the cameras (a gap
       // restarts the track by design; seen in a clang ASan run beside another test suite).
-      if (!ips::test::kSanitized) EXPECT_EQ(f["reset_counter"], 0);
+      if (!ips::test::kSanitized) {
+        EXPECT_EQ(f["reset_counter"], 0);
+      }
       // And the simulator's truth, converted by hand: north/east of lab (x, y) at 30 degrees.
       const double t = 1e-9 * static_cast<double>(usec * 1000 - real_minus_mono - epoch);
       const sim::MarkerPose truth = scene.marker_pose(1, t);
