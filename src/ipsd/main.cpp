@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
   // only the main arena's top and the threshold above stops the others from shrinking. The soak
   // under faults: +116 MiB/h with the default, the live heap flat (heaptrack); 2 arenas still
   // stepped up at a camera restart. The cost of sharing one heap's lock, bench_daemon --replay
-  // --cameras 12: ipsd CPU 120-135 % against 116-122 %, latency p99 24-25 ms against 18-19 ms.
+  // --cameras 12: ipsd CPU 120-135 % against 116-122 %, latency p99 24-30 ms against 18-19 ms.
   mallopt(M_ARENA_MAX, 1);
   CLI::App app{"ipsd: indoor positioning daemon (overhead cameras -> ArUco markers -> world positions over UDP)"};
   app.set_version_flag("--version", std::string("ipsd ") + IPS_VERSION);
