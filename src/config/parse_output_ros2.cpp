@@ -85,6 +85,24 @@ void attach_ros2_marker_names(DaemonConfig& c, const YAML::Node& root, const std
                          " (outputs[" + std::to_string(i) + "] (ros2) would publish both on one topic)");
       o.ros2.marker_names[id] = info.name;
     }
+    // Bodies publish under their names beside the markers (/<prefix>/<body name>/pose, the
+    // Ros2Sink): the same rules, one namespace.
+    for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+      const std::string& name = c.bodies[b].name;
+      const std::string key = "bodies[" + std::to_string(b) + "].name";
+      const std::string needs = "outputs[" + std::to_string(i) + "] (ros2)";
+      if (!ros2::is_name_token(name))
+        throw InputError(file + ": " + key + ": '" + name +
+                         "' is not usable in a ROS 2 topic name (letters, digits and _, not starting with a "
+                         "digit), as " + needs + " needs");
+      if (const auto it = taken.find(name); it != taken.end())
+        throw InputError(file + ": " + key + ": '" + name + "' is also the name of marker " +
+                         std::to_string(it->second) + " (" + needs + " would publish both on one topic)");
+      if (name.rfind("marker_", 0) == 0 && name.size() > 7 &&
+          name.find_first_not_of("0123456789", 7) == std::string::npos)
+        throw InputError(file + ": " + key + ": '" + name + "' is the ROS 2 name of unnamed marker " +
+                         name.substr(7) + " (" + needs + " would publish both on one topic)");
+    }
   }
 }
 

@@ -48,6 +48,17 @@ std::string marker_topic(const Ros2OutputSettings& s, std::uint32_t id, std::str
   return "rt/" + s.prefix + "/" + marker_name(s, id) + "/" + std::string(leaf);
 }
 
+std::string body_topic(const Ros2OutputSettings& s, const std::string& body, std::string_view leaf) {
+  return "rt/" + s.prefix + "/" + body + "/" + std::string(leaf);
+}
+
+std::string body_child_frame(const Ros2OutputSettings& s, const std::string& body) {
+  std::string f = s.child_frame_id;
+  replace_all(f, "{name}", body);
+  replace_all(f, "{id}", body);
+  return f;
+}
+
 Stamp to_stamp(std::int64_t realtime_ns) {
   // Floor division: a (theoretical) instant before 1970 still gets nanosec in 0..1e9.
   std::int64_t sec = realtime_ns / 1'000'000'000;

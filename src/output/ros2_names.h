@@ -22,6 +22,10 @@ std::string marker_name(const Ros2OutputSettings& s, std::uint32_t id);
 std::string child_frame(const Ros2OutputSettings& s, std::uint32_t id);
 /// "rt/<prefix>/<marker name>/<leaf>" (the ROS topic /<prefix>/<marker name>/<leaf>).
 std::string marker_topic(const Ros2OutputSettings& s, std::uint32_t id, std::string_view leaf);
+/// A body's: "rt/<prefix>/<body name>/<leaf>", and child_frame_id with both "{name}" and
+/// "{id}" replaced by the body's name (a body has no single marker id).
+std::string body_topic(const Ros2OutputSettings& s, const std::string& body, std::string_view leaf);
+std::string body_child_frame(const Ros2OutputSettings& s, const std::string& body);
 /// The DDS name of the ROS topic /tf.
 inline constexpr const char* kTfTopic = "rt/tf";
 

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <string>
 #include <stdexcept>
 #include <vector>
 
@@ -124,6 +125,33 @@ class Ros2Sink::Writers {
         transforms.push_back(tf);
       }
     }
+    // Bodies: their full orientation (quaternion) on /<prefix>/<body>/pose and /tf. A body
+    // update without a measured orientation is left out: PoseStamped cannot say "unknown".
+    for (const BodyRecord& b : d.bodies) {
+      if (!b.has_yaw || (!s_.pose && !s_.tf)) continue;
+      const Body& w = body(b.name);
+      if (!w.ok) {
+        ++r.errors;
+        r.last_error = DDS_RETCODE_ERROR;
+        continue;
+      }
+      const std::int64_t t = d.capture_realtime_ns + 1000LL * b.dt_us;
+      if (s_.pose) {
+        PoseStamped msg{};
+        msg.header = header(t, s_.frame_id);
+        msg.pose.position = {b.x, b.y, b.z};
+        msg.pose.orientation = {b.qx, b.qy, b.qz, b.qw};
+        count(dds_write(w.pose, &msg));
+      }
+      if (s_.tf) {
+        TransformStamped tf{};
+        tf.header = header(t, s_.frame_id);
+        tf.child_frame_id = c_str(w.child_frame);
+        tf.transform.translation = {b.x, b.y, b.z};
+        tf.transform.rotation = {b.qx, b.qy, b.qz, b.qw};
+        transforms.push_back(tf);
+      }
+    }
     if (s_.tf && !transforms.empty()) {
       TFMessage msg{};
       msg.transforms._buffer = transforms.data();
@@ -167,12 +195,33 @@ class Ros2Sink::Writers {
     return w;
   }
 
+  struct Body {
+    bool ok = false;
+    dds_entity_t pose = 0;
+    std::string child_frame;
+  };
+  // A body's writer, created at its first update (the configuration checked its name).
+  const Body& body(const std::string& name) {
+    auto [it, fresh] = bodies_.try_emplace(name);
+    Body& w = it->second;
+    if (!fresh) return w;
+    w.child_frame = ros2::body_child_frame(s_, name);
+    try {
+      if (s_.pose) w.pose = create(&geometry_msgs_msg_dds__PoseStamped__desc, ros2::body_topic(s_, name, "pose"), qos_, "ros2");
+      w.ok = true;
+    } catch (const std::exception& e) {
+      spdlog::error("output {}: body {}: {} (its samples are counted as lost)", s_.prefix, name, e.what());
+    }
+    return w;
+  }
+
   const Ros2OutputSettings& s_;
   dds_entity_t participant_ = 0;
   dds_entity_t tf_writer_ = 0;
   dds_qos_t* qos_ = nullptr;
   dds_qos_t* tf_qos_ = nullptr;
   std::map<std::uint32_t, Marker> markers_;
+  std::map<std::string, Body> bodies_;
 };
 
 Ros2Sink::Ros2Sink(const OutputConfig& c, const std::string& where)

@@ -129,6 +129,33 @@ TEST(Ros2Config, MarkerNamesMustBeRosNamesAndDistinct) {
   EXPECT_NO_THROW((void)parse_config(head + "markers:\n  ids:\n    3: {name: robot 1}\n", "ipsd.yaml", {false, false}));
 }
 
+TEST(Ros2Config, BodyNamesMustBeRosNamesApartFromTheMarkers) {
+  const DomainEnv env(nullptr);
+  auto bodies = [](const std::string& name) {
+    return "bodies:\n  - {name: " + name + ", cube: {id: 10, edge: 0.075, size: 0.10}}\n";
+  };
+  // kBase names marker 3 robot1; marker 4 is unnamed (ROS name marker_4).
+  const std::string ros2 = "  - {type: ros2}\n";
+  auto error_of = [&](const std::string& name) -> std::string {
+    try {
+      (void)parse_config(kBase + bodies(name) + "outputs:\n" + ros2, "ipsd.yaml", ConfigChecks{false, false});
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(error_of("cube_1"), "");
+  EXPECT_NE(error_of("\"cube 1\"").find("ipsd.yaml: bodies[0].name: 'cube 1' is not usable in a ROS 2 topic name"),
+            std::string::npos) << error_of("\"cube 1\"");
+  EXPECT_NE(error_of("robot1").find("bodies[0].name: 'robot1' is also the name of marker 3"), std::string::npos)
+      << error_of("robot1");
+  EXPECT_NE(error_of("marker_4").find("bodies[0].name: 'marker_4' is the ROS 2 name of unnamed marker 4"),
+            std::string::npos) << error_of("marker_4");
+  EXPECT_EQ(error_of("marker_x"), "");
+  // Without a ros2 output the stream's rule only (1-31 bytes of UTF-8).
+  EXPECT_NO_THROW((void)parse_config(kBase + bodies("\"cube 1\""), "ipsd.yaml", ConfigChecks{false, false}));
+}
+
 TEST(Ros2Config, TheCommentedExampleOfTheShippedConfigLoads) {
   const DomainEnv env(nullptr);
   std::ifstream in(std::string(IPS_CONFIG_DIR) + "/ipsd.yaml");

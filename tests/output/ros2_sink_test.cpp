@@ -1,5 +1,5 @@
 // The ros2 output in process: a subscriber written against the Cyclone DDS C API receives the
-// sink's PoseStamped / Odometry / TFMessage samples, compared field by field with values
+// sink's PoseStamped / Odometry / TFMessage samples (of markers and bodies), compared field by field with values
 // computed here by hand. (tests/output/ros2_ipsd_test.cpp runs the real daemon over the network.)
 #include <cmath>
 #include <map>
@@ -19,7 +19,7 @@ using Odometry = nav_msgs_msg_dds__Odometry_;
 using TFMessage = tf2_msgs_msg_dds__TFMessage_;
 
 // Each test its own domain, so that none sees another's writers.
-constexpr int kDomainValues = 61, kDomainNoVelocity = 62, kDomainAccounting = 63;
+constexpr int kDomainValues = 61, kDomainNoVelocity = 62, kDomainAccounting = 63, kDomainBodies = 60;
 
 class Ros2SinkTest : public ::testing::Test {
  protected:
@@ -147,6 +147,70 @@ TEST_F(Ros2SinkTest, SubscriberReceivesPoseOdometryAndTfWithTheRightValues) {
   EXPECT_GT(s.datagrams, 0u);
 }
 
+TEST_F(Ros2SinkTest, BodiesGetTheirFullOrientationOnPoseAndTf) {
+  OutputConfig o = ros2_output(kDomainBodies);
+  o.ros2.child_frame_id = "{name}_base";
+  o.ros2.tf = true;
+  o.ros2.reliable = true;
+  test::DdsParticipant p(kDomainBodies);
+  const auto cube = test::make_reader(p, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/lab/ipsd/cube/pose", true);
+  const auto slab = test::make_reader(p, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/lab/ipsd/slab/pose", true);
+  const auto tf = test::make_reader(p, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", true);
+  // Marker 7 and two bodies: "cube" tilted 90 degrees about x (w = x = sqrt(1/2)), seen 400 us
+  // before the capture time; "slab" with a position only (no orientation measured).
+  Datagram d = update(false);
+  d.markers.resize(1);
+  BodyRecord b;
+  b.name = "cube";
+  b.x = 0.5, b.y = 1.5, b.z = 0.3;
+  b.qw = std::sqrt(0.5), b.qx = std::sqrt(0.5), b.qy = 0.0, b.qz = 0.0;
+  b.dt_us = -400;
+  b.has_yaw = true;
+  BodyRecord position_only = b;
+  position_only.name = "slab";
+  position_only.has_yaw = false;
+  d.bodies = {b, position_only};
+
+  Ros2Sink sink(o, "outputs[0]");
+  std::vector<PoseStamped> poses;
+  int tf_messages = 0;
+  ASSERT_TRUE(test::wait_until(
+      [&] {
+        sink.publish(d);
+        test::take_all<PoseStamped>(cube, [&](const PoseStamped& m) {
+          EXPECT_STREQ(m.header.frame_id, "world");
+          poses.push_back(m);
+          poses.back().header.frame_id = nullptr;
+        });
+        tf_messages += test::take_all<TFMessage>(tf, [&](const TFMessage& m) {
+          // The markers' transforms first, then the bodies' with an orientation.
+          ASSERT_EQ(m.transforms._length, 2u);
+          const auto& t = m.transforms._buffer[1];
+          EXPECT_STREQ(m.transforms._buffer[0].child_frame_id, "robot1_base");
+          EXPECT_STREQ(t.child_frame_id, "cube_base");
+          EXPECT_EQ(t.header.stamp.nanosec, 123'056'789u);
+          EXPECT_DOUBLE_EQ(t.transform.translation.z, 0.3);
+          EXPECT_DOUBLE_EQ(t.transform.rotation.x, std::sqrt(0.5));
+          EXPECT_DOUBLE_EQ(t.transform.rotation.w, std::sqrt(0.5));
+        });
+        return !poses.empty() && tf_messages > 0;
+      },
+      10.0))
+      << poses.size() << " " << tf_messages;
+  const PoseStamped& a = poses.front();
+  EXPECT_EQ(a.header.stamp.sec, 1'700'000'000);
+  EXPECT_EQ(a.header.stamp.nanosec, 123'056'789u);  // capture - 400 us
+  EXPECT_DOUBLE_EQ(a.pose.position.x, 0.5);
+  EXPECT_DOUBLE_EQ(a.pose.position.y, 1.5);
+  EXPECT_DOUBLE_EQ(a.pose.position.z, 0.3);
+  EXPECT_DOUBLE_EQ(a.pose.orientation.x, std::sqrt(0.5));
+  EXPECT_DOUBLE_EQ(a.pose.orientation.y, 0.0);
+  EXPECT_DOUBLE_EQ(a.pose.orientation.z, 0.0);
+  EXPECT_DOUBLE_EQ(a.pose.orientation.w, std::sqrt(0.5));
+  // The position-only body was never written (a reliable reader of its topic got nothing).
+  EXPECT_EQ(test::take_all<PoseStamped>(slab, [](const PoseStamped&) {}), 0);
+}
+
 TEST_F(Ros2SinkTest, NoOdometryWithoutVelocityAndBestEffortReadersMatch) {
   const OutputConfig o = ros2_output(kDomainNoVelocity);  // best_effort, no tf
   test::DdsParticipant p(kDomainNoVelocity);
@@ -193,6 +257,8 @@ TEST(Ros2Names, TopicsFramesStampsAndQuaternions) {
   EXPECT_EQ(ros2::marker_topic(s, 12, "odom"), "rt/ipsd/marker_12/odom");
   s.child_frame_id = "ips_{id}_{name}";
   EXPECT_EQ(ros2::child_frame(s, 1), "ips_1_robot1");
+  EXPECT_EQ(ros2::body_child_frame(s, "cube"), "ips_cube_cube");  // a body has a name, no id
+  EXPECT_EQ(ros2::body_topic(s, "cube", "pose"), "rt/ipsd/cube/pose");
   EXPECT_TRUE(ros2::is_namespace("lab2/ipsd_3"));
   for (const char* bad : {"", "/ipsd", "ipsd/", "a//b", "2lab", "lab-2", "robot 1"})
     EXPECT_FALSE(ros2::is_namespace(bad)) << bad;
