@@ -15,9 +15,9 @@
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
 #include "ips/sim/scene.h"
+#include "bodies_lab_scene.h"
 #include "plane_model.h"
 #include "process_util.h"
-#include "published_scene.h"
 #include "release_only.h"
 
 namespace ips {
@@ -31,20 +31,13 @@ double p95(std::vector<double> v) {
   return v[static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(v.size()))) - 1];
 }
 
-// The robots of config/scenes/bodies_lab.yaml; the scene adds their trajectories.
-const char* kCube = "  - name: turtle\n    cube: {id: 5, edge: 0.075, size: 0.10, height: 0.30}\n";
-const char* kLong = "  - name: long\n    edge: 0.10\n    flat: [{id: 7, offset: [0.2, 0, 0.25]}, {id: 8, offset: [-0.2, 0, 0.25]}]\n";
-
 TEST(IpsdBodies, PublishedBodyPosesMatchTheSimulatorsTruth) {
   // ~8 s of a daemon with three rendering cameras: CPU-bound, and its accuracy depends on
   // frames not being dropped.
   IPS_RELEASE_ONLY("BodyTrack.* (the asynchronous body fusion) and WireV2.* (the record)");
   const fs::path dir = fs::temp_directory_path() / ("ipsd_bodies_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::ofstream(dir / "scene.yaml") << test::published_scene_with(
-      std::string("markers:\n  - {id: 3, length: 0.15, height: 0.10, x: 1.2, y: 2.0, yaw_deg: 20}\nbodies:\n") + kCube +
-      "    trajectory: {type: circle, center: [2.44, 2.44], radius: 1.95, speed: 0.5}\n" + kLong +
-      "    trajectory: {type: circle, center: [2.44, 2.44], radius: 1.95, speed: 0.5, start_deg: 180}\n");
+  std::ofstream(dir / "scene.yaml") << test::bodies_lab_scene();
   test::write_plane_model(dir / "scene.yaml", dir / "model.json");
   test::UdpReceiver rx;
   std::string cfg = "cameras:\n";
@@ -53,7 +46,7 @@ TEST(IpsdBodies, PublishedBodyPosesMatchTheSimulatorsTruth) {
   for (int c = 0; c < 3; ++c)
     cfg += std::string("  - {name: ") + names[c] + ", source: synthetic, scene: scene.yaml, fps: 10, phase: " +
            std::to_string(phases[c]) + "}\n";
-  cfg += "markers:\n  ids:\n    3: {height: 0.10, edge_length: 0.15}\nbodies:\n" + std::string(kCube) + kLong;
+  cfg += test::bodies_lab_daemon_sections();
   cfg += "model_file: model.json\noutputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(rx.port) +
          ", format: binary}\n";
   std::ofstream(dir / "ipsd.yaml") << cfg;
