@@ -78,20 +78,11 @@ class Ros2Sink::Writers {
 
   Result write(const Datagram& d) {
     Result r;
-    auto count = [&r](dds_return_t rc) {
-      if (rc == DDS_RETCODE_OK) {
-        ++r.samples;
-      } else {
-        ++r.errors;
-        r.last_error = rc;
-      }
-    };
     std::vector<TransformStamped> transforms;
     for (const MarkerRecord& m : d.markers) {
-      const Marker& w = marker(m.id);
+      const Topics& w = marker(m.id);
       if (!w.ok) {
-        ++r.errors;
-        r.last_error = DDS_RETCODE_ERROR;
+        count(r, DDS_RETCODE_ERROR);
         continue;
       }
       // The ROS convention for sensor data: stamped with the capture instant (CLOCK_REALTIME).
@@ -100,12 +91,7 @@ class Ros2Sink::Writers {
       geometry_msgs_msg_dds__Pose_ pose{};
       pose.position = {m.x, m.y, m.z};
       pose.orientation = {q.x, q.y, q.z, q.w};
-      if (s_.pose) {
-        PoseStamped msg{};
-        msg.header = header(t, s_.frame_id);
-        msg.pose = pose;
-        count(dds_write(w.pose, &msg));
-      }
+      pose_and_transform(w, t, pose, transforms, r);
       if (s_.odometry && d.has_velocity) {
         Odometry msg{};
         msg.header = header(t, s_.frame_id);
@@ -114,60 +100,68 @@ class Ros2Sink::Writers {
         // nav_msgs/Odometry: the twist is in the child (robot) frame, rotated by -yaw.
         const double c = std::cos(m.yaw), sn = std::sin(m.yaw);
         msg.twist.twist.linear = {c * m.vx + sn * m.vy, -sn * m.vx + c * m.vy, m.vz};
-        count(dds_write(w.odom, &msg));
-      }
-      if (s_.tf) {
-        TransformStamped tf{};
-        tf.header = header(t, s_.frame_id);
-        tf.child_frame_id = c_str(w.child_frame);
-        tf.transform.translation = {m.x, m.y, m.z};
-        tf.transform.rotation = {q.x, q.y, q.z, q.w};
-        transforms.push_back(tf);
+        count(r, dds_write(w.odom, &msg));
       }
     }
     // Bodies: their full orientation (quaternion) on /<prefix>/<body>/pose and /tf. A body
     // update without a measured orientation is left out: PoseStamped cannot say "unknown".
     for (const BodyRecord& b : d.bodies) {
       if (!b.has_yaw || (!s_.pose && !s_.tf)) continue;
-      const Body& w = body(b.name);
+      const Topics& w = body(b.name);
       if (!w.ok) {
-        ++r.errors;
-        r.last_error = DDS_RETCODE_ERROR;
+        count(r, DDS_RETCODE_ERROR);
         continue;
       }
-      const std::int64_t t = d.capture_realtime_ns + 1000LL * b.dt_us;
-      if (s_.pose) {
-        PoseStamped msg{};
-        msg.header = header(t, s_.frame_id);
-        msg.pose.position = {b.x, b.y, b.z};
-        msg.pose.orientation = {b.qx, b.qy, b.qz, b.qw};
-        count(dds_write(w.pose, &msg));
-      }
-      if (s_.tf) {
-        TransformStamped tf{};
-        tf.header = header(t, s_.frame_id);
-        tf.child_frame_id = c_str(w.child_frame);
-        tf.transform.translation = {b.x, b.y, b.z};
-        tf.transform.rotation = {b.qx, b.qy, b.qz, b.qw};
-        transforms.push_back(tf);
-      }
+      geometry_msgs_msg_dds__Pose_ pose{};
+      pose.position = {b.x, b.y, b.z};
+      pose.orientation = {b.qx, b.qy, b.qz, b.qw};
+      pose_and_transform(w, d.capture_realtime_ns + 1000LL * b.dt_us, pose, transforms, r);
     }
     if (s_.tf && !transforms.empty()) {
       TFMessage msg{};
       msg.transforms._buffer = transforms.data();
       msg.transforms._length = msg.transforms._maximum = static_cast<std::uint32_t>(transforms.size());
       msg.transforms._release = false;
-      count(dds_write(tf_writer_, &msg));
+      count(r, dds_write(tf_writer_, &msg));
     }
     return r;
   }
 
  private:
-  struct Marker {
+  /// A marker's or a body's writers and TF child frame.
+  struct Topics {
     bool ok = false;
     dds_entity_t pose = 0, odom = 0;
     std::string child_frame;
   };
+
+  static void count(Result& r, dds_return_t rc) {
+    if (rc == DDS_RETCODE_OK) {
+      ++r.samples;
+    } else {
+      ++r.errors;
+      r.last_error = rc;
+    }
+  }
+
+  // The PoseStamped (pose: true) and the /tf transform (tf: true, sent with the update's others).
+  void pose_and_transform(const Topics& w, std::int64_t t, const geometry_msgs_msg_dds__Pose_& pose,
+                          std::vector<TransformStamped>& transforms, Result& r) {
+    if (s_.pose) {
+      PoseStamped msg{};
+      msg.header = header(t, s_.frame_id);
+      msg.pose = pose;
+      count(r, dds_write(w.pose, &msg));
+    }
+    if (s_.tf) {
+      TransformStamped tf{};
+      tf.header = header(t, s_.frame_id);
+      tf.child_frame_id = c_str(w.child_frame);
+      tf.transform.translation = {pose.position.x, pose.position.y, pose.position.z};
+      tf.transform.rotation = pose.orientation;
+      transforms.push_back(tf);
+    }
+  }
 
   dds_entity_t create(const dds_topic_descriptor_t* desc, const std::string& topic_name, const dds_qos_t* qos,
                       const std::string& where) {
@@ -180,9 +174,9 @@ class Ros2Sink::Writers {
 
   // A marker's writers, created the first time it is seen (a lab's marker ids are not all
   // known in advance: unnamed markers are published too).
-  const Marker& marker(std::uint32_t id) {
+  const Topics& marker(std::uint32_t id) {
     auto [it, fresh] = markers_.try_emplace(id);
-    Marker& w = it->second;
+    Topics& w = it->second;
     if (!fresh) return w;
     w.child_frame = ros2::child_frame(s_, id);
     try {
@@ -195,15 +189,10 @@ class Ros2Sink::Writers {
     return w;
   }
 
-  struct Body {
-    bool ok = false;
-    dds_entity_t pose = 0;
-    std::string child_frame;
-  };
   // A body's writer, created at its first update (the configuration checked its name).
-  const Body& body(const std::string& name) {
+  const Topics& body(const std::string& name) {
     auto [it, fresh] = bodies_.try_emplace(name);
-    Body& w = it->second;
+    Topics& w = it->second;
     if (!fresh) return w;
     w.child_frame = ros2::body_child_frame(s_, name);
     try {
@@ -220,8 +209,8 @@ class Ros2Sink::Writers {
   dds_entity_t tf_writer_ = 0;
   dds_qos_t* qos_ = nullptr;
   dds_qos_t* tf_qos_ = nullptr;
-  std::map<std::uint32_t, Marker> markers_;
-  std::map<std::string, Body> bodies_;
+  std::map<std::uint32_t, Topics> markers_;
+  std::map<std::string, Topics> bodies_;
 };
 
 Ros2Sink::Ros2Sink(const OutputConfig& c, const std::string& where)
