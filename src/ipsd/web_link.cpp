@@ -39,7 +39,27 @@ std::string web_layout(const Runtime& rt) {
   j["markers"] = nlohmann::json::object();
   for (const auto& [id, info] : config.markers.ids)
     if (!info.name.empty() && info.publish) j["markers"][std::to_string(id)] = info.name;  // unpublished: never shown
+  j["bodies"] = body_layout(config.bodies);
   return j.dump();
+}
+
+nlohmann::json body_layout(const std::vector<ips::BodyDef>& bodies) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& body : bodies) {
+    nlohmann::json faces = nlohmann::json::array();
+    for (const auto& m : body.markers) {
+      // The plate's corners seen from above (body x, y): a square for a face-up marker, a
+      // line for a side face. The page turns them by the body's yaw.
+      const Eigen::Vector3d half_x = 0.5 * m.plate * m.axes.col(0), half_y = 0.5 * m.plate * m.axes.col(1);
+      nlohmann::json outline = nlohmann::json::array();
+      const Eigen::Vector3d corners[] = {m.position - half_x - half_y, m.position + half_x - half_y,
+                                         m.position + half_x + half_y, m.position - half_x + half_y};
+      for (const Eigen::Vector3d& c : corners) outline.push_back({c.x(), c.y()});
+      faces.push_back({{"id", m.id}, {"edge", m.edge}, {"plate", m.plate}, {"outline", outline}});
+    }
+    out.push_back({{"name", body.name}, {"ground", body.ground}, {"markers", faces}});
+  }
+  return out;
 }
 
 nlohmann::json web_counters_json(const ips::WebCounters& c) {

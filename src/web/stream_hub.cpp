@@ -12,7 +12,7 @@
 namespace ips::web {
 
 namespace {
-// A marker not seen for this long leaves the map (the page greys it out well before).
+// A marker or body not seen for this long leaves the map (the page greys it out well before).
 constexpr std::int64_t kForgetNs = 10'000'000'000;
 // With nothing new, the table is still re-sent this often (ages grow; a new client catches up).
 constexpr std::int64_t kRefreshNs = 1'000'000'000;
@@ -113,6 +113,7 @@ void StreamHub::broadcast(const Message& m) {
 }
 
 Message StreamHub::markers_message(std::int64_t now) const {
+  const auto age = [now](std::int64_t t) { return 1e-9 * static_cast<double>(now - t); };
   nlohmann::json j;
   j["t_mono_ns"] = now;
   j["update"] = last_update_;
@@ -121,9 +122,50 @@ Message StreamHub::markers_message(std::int64_t now) const {
     const MarkerRecord& m = e.record;
     list.push_back({{"id", id}, {"x", m.x}, {"y", m.y}, {"z", m.z}, {"yaw", m.yaw}, {"cameras", m.camera_mask},
                     {"quality", m.quality}, {"spread", m.spread}, {"vx", m.vx}, {"vy", m.vy},
-                    {"t_mono_ns", e.t_mono_ns}, {"age", 1e-9 * static_cast<double>(now - e.t_mono_ns)}});
+                    {"t_mono_ns", e.t_mono_ns}, {"age", age(e.t_mono_ns)}});
+  }
+  // Bodies (README "bodies"): a position-only body (has_yaw false) has no meaningful yaw or q.
+  auto& bodies = j["bodies"] = nlohmann::json::array();
+  for (const auto& [name, e] : bodies_) {
+    const BodyRecord& b = e.record;
+    bodies.push_back({{"name", name}, {"x", b.x}, {"y", b.y}, {"z", b.z}, {"yaw", b.yaw}, {"has_yaw", b.has_yaw},
+                      {"q", {b.qw, b.qx, b.qy, b.qz}}, {"cameras", b.camera_mask}, {"ids", b.ids},
+                      {"id_count", b.id_count}, {"quality", b.quality}, {"spread", b.spread},
+                      {"t_mono_ns", e.t_mono_ns}, {"age", age(e.t_mono_ns)}});
   }
   return std::make_shared<const std::string>("event: markers\ndata: " + j.dump() + "\n\n");
+}
+
+void StreamHub::merge(const Datagram& d) {
+  last_update_ = d.update;
+  // Fusion never goes back in time per marker or body; the tables keep it so.
+  for (const MarkerRecord& m : d.markers) {
+    auto& e = table_[m.id];
+    const std::int64_t t = d.capture_monotonic_ns + static_cast<std::int64_t>(m.dt_us) * 1000;
+    if (t >= e.t_mono_ns) e = {m, t};
+  }
+  for (const BodyRecord& b : d.bodies) {
+    auto& e = bodies_[b.name];
+    const std::int64_t t = d.capture_monotonic_ns + static_cast<std::int64_t>(b.dt_us) * 1000;
+    if (t >= e.t_mono_ns) e = {b, t};
+  }
+}
+
+bool StreamHub::forget_old(std::int64_t now) {
+  bool changed = false;
+  const auto sweep = [&](auto& table) {
+    for (auto it = table.begin(); it != table.end();) {
+      if (now - it->second.t_mono_ns > kForgetNs) {
+        it = table.erase(it);
+        changed = true;
+      } else {
+        ++it;
+      }
+    }
+  };
+  sweep(table_);
+  sweep(bodies_);
+  return changed;
 }
 
 void StreamHub::run() {
@@ -142,23 +184,9 @@ void StreamHub::run() {
     }
     const std::int64_t now = monotonic_ns();
     bool changed = !batch.empty();
-    for (const Datagram& d : batch) {
-      last_update_ = d.update;
-      for (const MarkerRecord& m : d.markers) {
-        Entry& e = table_[m.id];
-        const std::int64_t t = d.capture_monotonic_ns + static_cast<std::int64_t>(m.dt_us) * 1000;
-        if (t >= e.t_mono_ns) e = {m, t};  // fusion never goes back in time per marker; keep it so
-      }
-    }
+    for (const Datagram& d : batch) merge(d);
     batch.clear();
-    for (auto it = table_.begin(); it != table_.end();) {
-      if (now - it->second.t_mono_ns > kForgetNs) {
-        it = table_.erase(it);
-        changed = true;
-      } else {
-        ++it;
-      }
-    }
+    if (forget_old(now)) changed = true;
     if (status) broadcast(status);
     if (changed || now - last_sent >= kRefreshNs) {
       Message m = markers_message(now);

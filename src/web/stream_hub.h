@@ -1,5 +1,5 @@
 // The live stream's fan-out: fused updates from the fusion thread go into a bounded inbox;
-// the hub's own thread merges them into a marker table at most `rate` times a second, encodes
+// the hub's own thread merges them into a marker and a body table at most `rate` times a second, encodes
 // one message and pushes it into every client's bounded queue (full: the oldest message is
 // dropped and counted). Each client's queue is drained by the HTTP thread serving it, so a
 // slow browser only ever delays itself.
@@ -59,11 +59,14 @@ class StreamHub {
   std::size_t clients() const;
 
  private:
+  template <typename Record>
   struct Entry {
-    MarkerRecord record;
-    std::int64_t t_mono_ns = 0;  ///< the marker's capture time
+    Record record;
+    std::int64_t t_mono_ns = 0;  ///< the record's capture time
   };
   void run();
+  void merge(const Datagram& d);
+  bool forget_old(std::int64_t now);
   void broadcast(const Message& m);
   Message markers_message(std::int64_t now) const;
 
@@ -75,7 +78,8 @@ class StreamHub {
   bool status_changed_ = false;
   std::list<std::shared_ptr<StreamClient>> clients_;
   bool stop_ = false;
-  std::map<std::uint32_t, Entry> table_;  // fan-out thread only
+  std::map<std::uint32_t, Entry<MarkerRecord>> table_;  // fan-out thread only
+  std::map<std::string, Entry<BodyRecord>> bodies_;     // fan-out thread only
   std::uint32_t last_update_ = 0;
   std::thread thread_;
 };

@@ -24,6 +24,7 @@
 #include "ips/clock.h"
 #include "ips/packet_codec.h"
 #include "ips/sim/scene.h"
+#include "../daemon/bodies_lab_scene.h"
 #include "../daemon/plane_model.h"
 #include "../daemon/process_util.h"
 #include "published_scene.h"
@@ -41,6 +42,8 @@ struct Parked {
   double x, y, height, yaw_deg;
 };
 const Parked kParked[] = {{1, 1.6, 2.0, 0.15, 30.0}, {2, 3.2, 3.1, 0.10, -60.0}};
+// And a parked two-marker robot (markers 7 and 8, 40 cm apart): a body on the map.
+constexpr double kBodyX = 3.6, kBodyY = 1.0, kBodyYawDeg = 25.0;
 
 class WebBrowserTest : public ::testing::Test {
  protected:
@@ -53,6 +56,8 @@ class WebBrowserTest : public ::testing::Test {
                  ", y: " + std::to_string(p.y) + ", height: " + std::to_string(p.height) +
                  ", yaw_deg: " + std::to_string(p.yaw_deg) + "}\n";
     markers += "  - {id: 3, length: 0.20, height: 0.12, trajectory: {type: circle, center: [2.4, 2.4], radius: 0.8, speed: 0.3}}\n";
+    markers += std::string("bodies:\n") + test::kBodiesLabLong + "    x: " + std::to_string(kBodyX) +
+               "\n    y: " + std::to_string(kBodyY) + "\n    yaw_deg: " + std::to_string(kBodyYawDeg) + "\n";
     std::ofstream(*dir_ / "scene.yaml") << test::published_scene_with(markers);
     test::write_plane_model(*dir_ / "scene.yaml", *dir_ / "model.json");
   }
@@ -71,6 +76,7 @@ class WebBrowserTest : public ::testing::Test {
       c += std::string("  - {name: ") + name + ", source: synthetic, scene: scene.yaml, fps: 4}\n";
     c += "markers:\n  ids:\n    1: {name: parked-a, height: 0.15}\n    2: {name: parked-b, height: 0.10}\n"
          "    3: {name: circler, height: 0.12}\n";
+    c += std::string("bodies:\n") + test::kBodiesLabLong;
     c += "model_file: model.json\n";
     c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(rx_.port) + ", format: binary}\n";
     c += "status: {interval: 0}\n";
@@ -99,8 +105,9 @@ class WebBrowserTest : public ::testing::Test {
     return j["updates"].get<int>() > 4;
   }
 
-  /// The latest position of every marker on the stream (after `events` marker events).
-  std::map<int, nlohmann::json> stream_positions(int events) {
+  /// The latest position of every marker (and body, by name, in `bodies`) on the stream (after
+  /// `events` marker events).
+  std::map<int, nlohmann::json> stream_positions(int events, std::map<std::string, nlohmann::json>* bodies = nullptr) {
     test::EventStream s(port_);
     std::map<int, nlohmann::json> out;
     for (int n = 0; n < events;) {
@@ -113,6 +120,8 @@ class WebBrowserTest : public ::testing::Test {
       ++n;
       const auto j = nlohmann::json::parse(e.second);
       for (const auto& m : j["markers"]) out[m["id"].get<int>()] = m;
+      if (bodies)
+        for (const auto& b : j["bodies"]) (*bodies)[b["name"].get<std::string>()] = b;
     }
     return out;
   }
@@ -161,7 +170,8 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
 
   // Markers: drawn at their world position (transform = translate(x, -y)), where the
   // simulator parked them, where the stream says they are, named, with their cameras.
-  const auto stream = stream_positions(3);
+  std::map<std::string, nlohmann::json> stream_bodies;
+  const auto stream = stream_positions(3, &stream_bodies);
   const auto markers = elements(dom, "g", "class=\"marker");
   ASSERT_GE(markers.size(), 2u) << dom.substr(0, 3000);
   int parked_seen = 0;
@@ -186,6 +196,54 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
     }
   }
   EXPECT_EQ(parked_seen, 2);
+  for (const auto& m : markers) EXPECT_TRUE(m.at("data-id") != "7" && m.at("data-id") != "8") << "a body's marker drawn as a marker";
+
+  // The body: drawn at the robot's origin, turned by its yaw (the simulator's truth), its two
+  // plates from the layout, named, with its markers, where the stream says; a row in the table.
+  const auto bodies = elements(dom, "g", "class=\"body");
+  ASSERT_EQ(bodies.size(), 1u) << dom.substr(0, 3000);
+  const auto& b = bodies[0];
+  EXPECT_EQ(b.at("data-name"), "long");
+  EXPECT_EQ(b.at("data-has-yaw"), "1");
+  EXPECT_EQ(b.at("data-ids"), "7,8");
+  EXPECT_FALSE(b.at("data-cameras").empty());
+  const double bx = std::stod(b.at("data-x")), by = std::stod(b.at("data-y")), byaw = std::stod(b.at("data-yaw"));
+  EXPECT_NEAR(bx, kBodyX, 0.03);
+  EXPECT_NEAR(by, kBodyY, 0.03);
+  EXPECT_NEAR(std::remainder(byaw - kBodyYawDeg * M_PI / 180, 2 * M_PI), 0, 0.05);
+  std::smatch bt;
+  const std::string body_transform = b.at("transform");
+  ASSERT_TRUE(std::regex_search(body_transform, bt, std::regex("translate\\(([-0-9.]+) ([-0-9.]+)\\)"))) << body_transform;
+  EXPECT_NEAR(std::stod(bt[1]), bx, 1e-3);
+  EXPECT_NEAR(std::stod(bt[2]), -by, 1e-3);
+  const auto shape = elements(dom, "g", "class=\"shape");
+  ASSERT_EQ(shape.size(), 1u);
+  const std::string shape_transform = shape[0].at("transform");
+  ASSERT_TRUE(std::regex_search(shape_transform, bt, std::regex("rotate\\(([-0-9.]+)\\)"))) << shape_transform;
+  EXPECT_NEAR(std::stod(bt[1]), -byaw * 180 / M_PI, 0.01);  // world y up, SVG y down
+  // The plates (layout.json, body frame, SVG y down) turned and moved as drawn: marker 7 is
+  // 0.2 m ahead of the origin, marker 8 0.2 m behind, 10 cm plates.
+  const auto plates = elements(dom, "polygon", "class=\"plate");
+  ASSERT_EQ(plates.size(), 2u);
+  for (const auto& p : plates) {
+    std::vector<double> v;
+    const std::string points = p.at("points");
+    const std::regex number("[-0-9.e]+");
+    for (auto it = std::sregex_iterator(points.begin(), points.end(), number); it != std::sregex_iterator(); ++it)
+      v.push_back(std::stod(it->str()));
+    ASSERT_EQ(v.size(), 8u) << points;
+    const double cx = (v[0] + v[2] + v[4] + v[6]) / 4, cy = -(v[1] + v[3] + v[5] + v[7]) / 4;
+    EXPECT_NEAR(std::hypot(v[2] - v[0], v[3] - v[1]), 0.10, 1e-6);
+    const double ahead = p.at("data-id") == "7" ? 0.2 : -0.2, yaw = kBodyYawDeg * M_PI / 180;
+    EXPECT_NEAR(bx + std::cos(byaw) * cx - std::sin(byaw) * cy, kBodyX + ahead * std::cos(yaw), 0.03) << p.at("data-id");
+    EXPECT_NEAR(by + std::sin(byaw) * cx + std::cos(byaw) * cy, kBodyY + ahead * std::sin(yaw), 0.03) << p.at("data-id");
+  }
+  EXPECT_EQ(elements(dom, "polyline", "class=\"body-trail").size(), 1u);
+  ASSERT_TRUE(stream_bodies.count("long"));
+  EXPECT_NEAR(bx, stream_bodies.at("long")["x"].get<double>(), 0.01);
+  EXPECT_NEAR(by, stream_bodies.at("long")["y"].get<double>(), 0.01);
+  EXPECT_EQ(elements(dom, "tr", "data-body=\"long\"").size(), 1u);
+  EXPECT_EQ(elements(dom, "td", "data-field=\"yaw_deg\"").size(), 1u);
   EXPECT_NE(dom.find(">1 parked-a<"), std::string::npos);
   EXPECT_EQ(elements(dom, "polygon", "class=\"footprint").size(), 3u);  // every camera has a pose model
   EXPECT_EQ(elements(dom, "rect", "data-floor=\"0,0,4.88,4.88\"").size(), 1u);

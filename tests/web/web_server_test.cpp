@@ -3,6 +3,7 @@
 // where the detections are, the stream's content, its bounded per-client queues and abrupt
 // disconnects.
 #include <atomic>
+#include <cmath>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -148,6 +149,10 @@ TEST_F(WebServerTest, ServesThePageAndJsonAndRefusesMalformedRequests) {
   EXPECT_NE(page.headers.find("text/html"), std::string::npos);
   EXPECT_NE(page.body.find("<svg id=\"map\""), std::string::npos);
   EXPECT_EQ(http_get(port_, "/assets/app.js").status, 200);
+  const auto bodies_js = http_get(port_, "/assets/bodies.js");
+  EXPECT_EQ(bodies_js.status, 200);
+  EXPECT_NE(bodies_js.headers.find("text/javascript"), std::string::npos);
+  EXPECT_NE(page.body.find("/assets/bodies.js"), std::string::npos);
   EXPECT_EQ(nlohmann::json::parse(http_get(port_, "/status.json").body)["type"], "ipsd.status");
   EXPECT_EQ(http_get(port_, "/layout.json").status, 200);
 
@@ -310,6 +315,76 @@ TEST_F(WebServerTest, StreamsRateLimitedUpdatesWithBoundedQueuesAndSurvivesAbrup
   stalled.socket().reset();
   for (int i = 0; i < 40 && server_->counters().clients > 1; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_EQ(server_->counters().clients, 1u);
+}
+
+// A version-2 update: one body (and one plain marker) at capture time `t` + dt.
+Datagram body_update(std::uint32_t n, std::int64_t t, std::int32_t dt_us, double x) {
+  Datagram d;
+  d.version = 2;
+  d.update = n;
+  d.capture_monotonic_ns = t;
+  MarkerRecord m;
+  m.id = 9;
+  m.camera_mask = 0b01;
+  m.x = 0.5;
+  d.markers.push_back(m);
+  BodyRecord b;
+  b.name = "cart \"7\"";  // any UTF-8 is a body name on the wire; the page must not break on quotes
+  b.camera_mask = 0b10;
+  b.x = x;
+  b.y = 2.5;
+  b.z = 0.0;
+  b.yaw = 0.3;
+  b.qw = std::cos(0.15);
+  b.qz = std::sin(0.15);
+  b.quality = 1234.5;
+  b.spread = 0.004;
+  b.dt_us = dt_us;
+  b.has_yaw = true;
+  b.id_count = 2;
+  b.ids = {5, 6};
+  d.bodies.push_back(b);
+  return d;
+}
+
+TEST_F(WebServerTest, StreamsBodiesWithTheirPoseMarkersAndCamerasNeverBackInTime) {
+  test::EventStream s(port_);
+  const std::int64_t t0 = monotonic_ns();
+  server_->publish(body_update(1, t0, 2000, 1.5));
+  // A later update whose body was captured before the first one's (a late camera): the body
+  // keeps its newer pose; the marker (newer) moves on.
+  server_->publish(body_update(2, t0 + 1'000'000, -5000, 9.9));
+  nlohmann::json body;
+  for (int i = 0; i < 20 && body.is_null(); ++i) {
+    const auto e = s.next(1000);
+    if (e.first != "markers") continue;
+    const auto j = nlohmann::json::parse(e.second);
+    if (j["update"] == 2 && j["bodies"].size() == 1u) body = j["bodies"][0];
+  }
+  ASSERT_FALSE(body.is_null());
+  EXPECT_EQ(body["name"], "cart \"7\"");
+  EXPECT_EQ(body["x"], 1.5);
+  EXPECT_EQ(body["y"], 2.5);
+  EXPECT_EQ(body["yaw"], 0.3);
+  EXPECT_EQ(body["has_yaw"], true);
+  EXPECT_NEAR(body["q"][0].get<double>(), std::cos(0.15), 1e-12);
+  EXPECT_NEAR(body["q"][3].get<double>(), std::sin(0.15), 1e-12);
+  EXPECT_EQ(body["cameras"], 2);
+  EXPECT_EQ(body["ids"], nlohmann::json({5, 6}));
+  EXPECT_EQ(body["id_count"], 2);
+  EXPECT_EQ(body["t_mono_ns"], t0 + 2'000'000);
+  EXPECT_GE(body["age"].get<double>(), -0.01);
+  EXPECT_LT(body["age"].get<double>(), 5.0);
+  // A newer pose replaces it.
+  server_->publish(body_update(3, t0 + 40'000'000, 0, 1.6));
+  bool moved = false;
+  for (int i = 0; i < 20 && !moved; ++i) {
+    const auto e = s.next(1000);
+    if (e.first != "markers") continue;
+    const auto j = nlohmann::json::parse(e.second);
+    moved = j["bodies"].size() == 1u && j["bodies"][0]["x"] == 1.6;
+  }
+  EXPECT_TRUE(moved);
 }
 
 TEST(WebServer, ABusyPortIsAnErrorNamingWebListen) {

@@ -1,8 +1,8 @@
 // ipsd live view: the floor map (SVG in world metres, y up), the camera view and the health
 // tables, fed by /layout.json, the /events stream (Server-Sent Events) and /camera/<name>.jpg.
-// Plain JS, no framework, nothing from the internet. Every marker element carries its world
-// position and id as data attributes (data-id, data-x, data-y, data-yaw) so that the tests
-// read back what is drawn.
+// Plain JS, no framework, nothing from the internet; bodies are drawn by bodies.js. Every
+// marker element carries its world position and id as data attributes (data-id, data-x,
+// data-y, data-yaw) so that the tests read back what is drawn.
 // ?updates=N: stop the stream after N marker updates and the camera view after 2 images
 // (a still page, for screenshots and the browser test).
 'use strict';
@@ -276,7 +276,9 @@ function connect() {
   es.addEventListener('open', () => { $('conn').dataset.state = 'live'; $('conn').textContent = 'live'; });
   es.addEventListener('error', () => { $('conn').dataset.state = 'lost'; $('conn').textContent = 'reconnecting…'; });
   es.addEventListener('markers', (e) => {
-    drawMarkers(JSON.parse(e.data));
+    const msg = JSON.parse(e.data);
+    drawMarkers(msg);
+    drawBodies(msg);  // bodies.js
     state.updates++;
     count++;
     const dt = (performance.now() - t0) / 1000;
