@@ -28,7 +28,8 @@ bool same_ints(const ips::Datagram& a, const ips::Datagram& b) {
   for (std::size_t i = 0; i < a.bodies.size(); ++i)
     if (a.bodies[i].name != b.bodies[i].name || a.bodies[i].camera_mask != b.bodies[i].camera_mask ||
         a.bodies[i].dt_us != b.bodies[i].dt_us || a.bodies[i].has_yaw != b.bodies[i].has_yaw ||
-        a.bodies[i].id_count != b.bodies[i].id_count || a.bodies[i].ids != b.bodies[i].ids)
+        a.bodies[i].id_count != b.bodies[i].id_count || a.bodies[i].ids != b.bodies[i].ids ||
+        a.bodies[i].has_velocity != b.bodies[i].has_velocity || a.bodies[i].has_yaw_rate != b.bodies[i].has_yaw_rate)
       return false;
   for (std::size_t i = 0; i < a.markers.size(); ++i)
     if (a.markers[i].id != b.markers[i].id || a.markers[i].camera_mask != b.markers[i].camera_mask ||
@@ -80,7 +81,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const ips::BodyRecord& r = d.bodies[i];
       check(r.name == b.name && b.camera_mask == r.camera_mask && b.dt_us == r.dt_us && double(b.x) == r.x &&
             double(b.qw) == r.qw && double(b.qz) == r.qz && b.id_count == r.id_count &&
-            ((b.flags & IPS_WIRE_BODY_HAS_YAW) != 0) == r.has_yaw);
+            ((b.flags & IPS_WIRE_BODY_HAS_YAW) != 0) == r.has_yaw &&
+            ((b.flags & IPS_WIRE_BODY_HAS_VELOCITY) != 0) == r.has_velocity && double(b.vx) == r.vx &&
+            double(b.vz) == r.vz && ((b.flags & IPS_WIRE_BODY_HAS_YAW_RATE) != 0) == r.has_yaw_rate &&
+            double(b.yaw_rate) == r.yaw_rate);
       for (std::size_t k = 0; k < r.ids.size(); ++k) check(b.ids[k] == r.ids[k]);
     }
   }

@@ -22,8 +22,9 @@ def copy(target, *paths):
         put(target, os.path.basename(p), open(os.path.join(ROOT, p), "rb").read())
 
 
-def datagram(markers, velocity=False, part=0, parts=1, extra=0, bodies=None, body_extra=0):
-    """bodies (a list of (name, ids)) makes it version 2."""
+def datagram(markers, velocity=False, part=0, parts=1, extra=0, bodies=None, body_extra=0, body_velocity=True):
+    """bodies (a list of (name, ids)) makes it version 2; body_velocity False: the first
+    senders' 100-byte body records (no velocity fields)."""
     rs = (48 if velocity else 36) + extra
     h = b"IPSD" + struct.pack("<HHIHHBBHIqqq", 1 if bodies is None else 2, 1 if velocity else 0, 7, len(markers), rs,
                               part, parts, 0, 42, 1700000000000000000, 123456789, 1700000000001000000)
@@ -34,11 +35,14 @@ def datagram(markers, velocity=False, part=0, parts=1, extra=0, bodies=None, bod
             r += struct.pack("<fff", 0.5, -0.25, 0.0)
         body += r + b"\0" * extra
     if bodies is not None:
-        body += struct.pack("<HH", len(bodies), 100 + body_extra)
+        body += struct.pack("<HH", len(bodies), (116 if body_velocity else 100) + body_extra)
         for i, (name, ids) in enumerate(bodies):
             listed = (list(ids[:4]) + [0, 0, 0, 0])[:4]
+            flags = 7 if body_velocity and i % 2 == 0 else 1  # yaw (+ velocity, yaw rate)
             body += struct.pack("<32sIffffffffffiHH4I", name.encode(), 0b11, 1.0 + i, -0.5, 0.0, 0.3,
-                                0.989, 0.0, 0.0, 0.149, 1800.0, 0.003, -500 * i, 1, len(ids), *listed)
+                                0.989, 0.0, 0.0, 0.149, 1800.0, 0.003, -500 * i, flags, len(ids), *listed)
+            if body_velocity:
+                body += struct.pack("<ffff", 0.4, -0.1, 0.0, 0.25) if flags == 7 else b"\0" * 16
             body += b"\0" * body_extra
     return h + body
 
@@ -96,13 +100,15 @@ def main():
     put("datagram", "binary_future_record.bin", datagram([(9, 1.0, 1.0)], extra=8))
     put("datagram", "binary_empty.bin", datagram([]))
     put("datagram", "binary_v2_bodies.bin", datagram([(7, 1.5, -2.25)], bodies=[("cube", [5]), ("two", [21, 22])]))
+    put("datagram", "binary_v2_first_senders.bin", datagram([], bodies=[("cube", [5])], body_velocity=False))
     put("datagram", "binary_v2_future_body.bin", datagram([], bodies=[("robot_with_a_long_name_31_bytes", [1, 2, 3, 4, 5])],
                                                             body_extra=8))
     put("datagram", "json_v2.json",
         '{"type":"ips.positions","version":2,"seq":3,"update":2,"part":0,"parts":1,"t_capture_real_ns":1,'
         '"t_capture_mono_ns":2,"t_publish_real_ns":3,"velocity":false,"markers":[],"bodies":[{"name":"cube",'
         '"cameras":3,"x":1.0,"y":2.0,"z":0.0,"yaw":0.5,"qw":0.968912,"qx":0.0,"qy":0.0,"qz":0.247404,'
-        '"quality":1800.0,"spread":0.002,"dt_us":0,"has_yaw":true,"id_count":1,"ids":[5]}]}\n')
+        '"quality":1800.0,"spread":0.002,"dt_us":0,"has_yaw":true,"id_count":1,"ids":[5],"vx":0.4,"vy":-0.1,'
+        '"vz":0.0,"yaw_rate":0.25}]}\n')
     put("datagram", "json_2.json",
         '{"type":"ips.positions","version":1,"seq":7,"update":42,"part":0,"parts":1,'
         '"t_capture_real_ns":1700000000000000000,"t_capture_mono_ns":123456789,"t_publish_real_ns":1700000000001000000,'

@@ -31,8 +31,11 @@ HEADER = struct.Struct("<4sHHIHHBBHIqqq")  # 48 bytes, little-endian
 RECORD = struct.Struct("<IIffffffi")        # 36 bytes
 VELOCITY = struct.Struct("<fff")            # +12 bytes when FLAG_VELOCITY
 BODY_SECTION = struct.Struct("<HH")         # version 2: body_count, body_record_size
-BODY = struct.Struct("<32sIffffffffffiHH4I")  # 100 bytes
+BODY = struct.Struct("<32sIffffffffffiHH4I")  # 100 bytes: every body record has these
+BODY_VELOCITY = struct.Struct("<ffff")      # bytes 100-115 (records of >= 116 bytes): vx vy vz yaw_rate
 BODY_HAS_YAW = 0x0001
+BODY_HAS_VELOCITY = 0x0002
+BODY_HAS_YAW_RATE = 0x0004
 
 
 SUB_REQUEST = struct.Struct("<4sBBBBHH16s")  # 28 bytes, then ids (u32 each), then the HMAC
@@ -141,7 +144,14 @@ def decode(data: bytes) -> dict:
                  "x": x, "y": y, "z": z, "yaw": yaw, "qw": qw, "qx": qx, "qy": qy, "qz": qz,
                  "quality": quality, "spread": spread, "dt_us": dt_us,
                  "has_yaw": bool(bflags & BODY_HAS_YAW), "id_count": id_count, "ids": ids[:min(id_count, 4)]}
-            if not all(math.isfinite(b[k]) for k in ("x", "y", "z", "yaw", "qw", "qx", "qy", "qz")):
+            if body_size >= BODY.size + BODY_VELOCITY.size:  # older senders: 100 bytes, no velocity
+                vx, vy, vz, yaw_rate = BODY_VELOCITY.unpack_from(data, off + BODY.size)
+                if bflags & BODY_HAS_VELOCITY:
+                    b["vx"], b["vy"], b["vz"] = vx, vy, vz
+                if bflags & BODY_HAS_YAW_RATE:
+                    b["yaw_rate"] = yaw_rate
+            if not all(math.isfinite(b[k]) for k in ("x", "y", "z", "yaw", "qw", "qx", "qy", "qz", "vx", "vy", "vz",
+                                                      "yaw_rate") if k in b):
                 raise Malformed("non-finite body pose")
             bodies.append(b)
     if parts == 0 or part >= parts:
@@ -223,7 +233,9 @@ def main() -> int:
                 yaw = f"{math.degrees(b['yaw']):7.1f} deg" if b["has_yaw"] else "      - deg"
                 print(f"seq {d['seq']:6d}  body {b['name']}  x {b['x']:7.3f}  y {b['y']:7.3f}  z {b['z']:6.3f} m  "
                       f"yaw {yaw}  q ({b['qw']:.3f} {b['qx']:.3f} {b['qy']:.3f} {b['qz']:.3f})  "
-                      f"ids {','.join(str(i) for i in b['ids'])}  cams 0x{b['cameras']:02x}  age {age_ms:6.1f} ms",
+                      f"ids {','.join(str(i) for i in b['ids'])}  cams 0x{b['cameras']:02x}  age {age_ms:6.1f} ms"
+                      + (f"  v ({b['vx']:.2f}, {b['vy']:.2f}) m/s" if "vx" in b else "")
+                      + (f"  yaw rate {math.degrees(b['yaw_rate']):.1f} deg/s" if "yaw_rate" in b else ""),
                       flush=True)
     except KeyboardInterrupt:
         pass

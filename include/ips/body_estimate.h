@@ -74,6 +74,12 @@ struct FusedBody {
   double quality = 0.0;  ///< sum of contributing pixel areas
   double spread = 0.0;   ///< largest distance of a view's body position from their fused one, m
   std::int64_t t_mono_ns = 0, t_real_ns = 0;
+  /// Velocity (world, m/s) and yaw rate (rad/s about world z), set by the daemon's BodyTrack
+  /// from the body's published poses (body_track.h); has_velocity false until it has two.
+  bool has_velocity = false;
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  bool has_yaw_rate = false;  ///< two poses with a yaw in the span
+  double yaw_rate = 0.0;
 };
 
 struct BodyEstimatorOptions {

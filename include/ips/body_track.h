@@ -6,6 +6,10 @@
 // views of the instant go through BodyEstimator::fuse (cube faces told apart, baseline yaw,
 // the configured method).
 //
+// Velocity: each published pose carries the body's velocity and yaw rate, the newest minus the
+// oldest of its published poses within `velocity_span_s` (with the newest one) over their time
+// apart: the mean over the span, so it lags a turn by half the span. The first pose has none.
+//
 // Order: a body is published only at a capture time >= its last published time; a frame that
 // arrives late (older than that) is merged into the history for later outputs but publishes
 // nothing for that body (counted as `late`). Not thread-safe: owned by the fusion thread.
@@ -59,9 +63,17 @@ class BodyTrack {
     std::int64_t newest_ns = 0;
     bool published = false;
     FusedBody last;                              // the last published pose
-    std::deque<std::pair<std::int64_t, Eigen::Vector3d>> path;  // recent published positions
+    struct Pose {
+      std::int64_t t_ns = 0;
+      Eigen::Vector3d position;
+      bool has_yaw = false;
+      double yaw = 0.0;
+    };
+    std::deque<Pose> path;  // recent published poses, within the velocity span
   };
-  Eigen::Vector3d velocity(const Track& track) const;
+  static Eigen::Vector3d velocity(const Track& track);
+  /// The body's velocity and yaw rate from its path (the newest pose included).
+  static void set_velocity(const Track& track, FusedBody& f);
 
   BodyEstimator estimator_;
   BodyTrackOptions options_;

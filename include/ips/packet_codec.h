@@ -44,6 +44,10 @@ struct BodyRecord {
   bool has_yaw = false;           ///< yaw/quaternion measured (false: position only)
   std::uint16_t id_count = 0;     ///< distinct marker ids that contributed
   std::vector<std::uint32_t> ids; ///< the first min(id_count, IPS_WIRE_BODY_MAX_IDS), ascending
+  bool has_velocity = false;      ///< vx, vy, vz measured (from the body's published positions)
+  double vx = 0, vy = 0, vz = 0;  ///< world, m/s
+  bool has_yaw_rate = false;      ///< yaw_rate measured
+  double yaw_rate = 0;            ///< rad/s about world z
 };
 
 /// One datagram's content (either format). Version 1: markers only; version 2: markers and

@@ -59,10 +59,12 @@
  * its body only, never also as a marker record.
  *   off size type  field
  *   B+0    2 u16   body_count: body records that follow
- *   B+2    2 u16   body_record_size: bytes per body record (100)
+ *   B+2    2 u16   body_record_size: bytes per body record (116; 100 from the first senders)
  * The datagram is exactly B + 4 + body_count * body_record_size bytes.
  *
- * Body record, 100 bytes (no velocity):
+ * Body record, 116 bytes (the first ipsd with bodies sent 100: fields up to byte 100, no
+ * velocity; a receiver accepts body_record_size >= 100 and reads velocity only from records
+ * of at least 116 bytes):
  *   off size type     field
  *     0   32 char[32] name: the body's name (config bodies[].name), UTF-8, NUL-padded; at most
  *                     31 bytes, so it is always NUL-terminated
@@ -81,9 +83,15 @@
  *    76    4 i32      dt_us: this body's time minus the header's capture time, microseconds
  *                     (<= 0). Per body name, header time + dt_us never decreases.
  *    80    2 u16      body_flags: bit 0 = IPS_WIRE_BODY_HAS_YAW (yaw and quaternion are
- *                     measured; 0 = position only, e.g. a cube side seen with no face known)
+ *                     measured; 0 = position only, e.g. a cube side seen with no face known);
+ *                     bit 1 = IPS_WIRE_BODY_HAS_VELOCITY (vx, vy, vz measured); bit 2 =
+ *                     IPS_WIRE_BODY_HAS_YAW_RATE (yaw_rate measured); other bits 0
  *    82    2 u16      id_count: distinct marker ids that contributed
  *    84   16 u32[4]   ids: the first min(id_count, 4) of them, ascending; the rest 0
+ *   100    4 f32      vx, m/s, world frame: the body's own published positions over the
+ *   104    4 f32      vy, m/s               daemon's fusion.velocity_span (a mean over that
+ *   108    4 f32      vz, m/s               span, not a filter); 0 without HAS_VELOCITY
+ *   112    4 f32      yaw_rate, rad/s about world z, over the same span; 0 without HAS_YAW_RATE
  */
 #ifndef IPS_WIRE_H
 #define IPS_WIRE_H
@@ -143,10 +151,13 @@ extern "C" {
 
 /* Version 2: the body section and its records. */
 #define IPS_WIRE_BODY_SECTION_SIZE 4u
-#define IPS_WIRE_BODY_RECORD_SIZE 100u
+#define IPS_WIRE_BODY_RECORD_SIZE 116u    /* what ipsd sends */
+#define IPS_WIRE_BODY_RECORD_MIN 100u     /* the smallest a receiver accepts (no velocity) */
 #define IPS_WIRE_BODY_NAME_SIZE 32u
 #define IPS_WIRE_BODY_MAX_IDS 4u
 #define IPS_WIRE_BODY_HAS_YAW 0x0001u
+#define IPS_WIRE_BODY_HAS_VELOCITY 0x0002u
+#define IPS_WIRE_BODY_HAS_YAW_RATE 0x0004u
 #define IPS_WIRE_BODY_NAME 0u
 #define IPS_WIRE_BODY_CAMERA_MASK 32u
 #define IPS_WIRE_BODY_X 36u
@@ -163,6 +174,10 @@ extern "C" {
 #define IPS_WIRE_BODY_FLAGS 80u
 #define IPS_WIRE_BODY_ID_COUNT 82u
 #define IPS_WIRE_BODY_IDS 84u
+#define IPS_WIRE_BODY_VX 100u
+#define IPS_WIRE_BODY_VY 104u
+#define IPS_WIRE_BODY_VZ 108u
+#define IPS_WIRE_BODY_YAW_RATE 112u
 
 /* ---- little-endian readers (byte-wise: any host byte order, any alignment) ---- */
 static inline uint16_t ips_wire_get_u16(const uint8_t* p) {
@@ -273,9 +288,11 @@ struct ips_wire_body {
   float quality;
   float spread;
   int32_t dt_us;
-  uint16_t flags; /* IPS_WIRE_BODY_HAS_YAW */
+  uint16_t flags; /* IPS_WIRE_BODY_HAS_YAW | _HAS_VELOCITY | _HAS_YAW_RATE */
   uint16_t id_count;
   uint32_t ids[IPS_WIRE_BODY_MAX_IDS];
+  float vx, vy, vz; /* 0 unless flags has IPS_WIRE_BODY_HAS_VELOCITY */
+  float yaw_rate;   /* 0 unless flags has IPS_WIRE_BODY_HAS_YAW_RATE */
 };
 
 /* Validates a whole datagram and decodes its header. Returns IPS_WIRE_OK or a negative
@@ -311,7 +328,7 @@ static inline int ips_wire_read_header(const uint8_t* buf, size_t len, struct ip
       if ((uint64_t)len < markers_end + IPS_WIRE_BODY_SECTION_SIZE) return IPS_WIRE_BAD_LENGTH;
       h->body_count = ips_wire_get_u16(buf + markers_end);
       h->body_record_size = ips_wire_get_u16(buf + markers_end + 2);
-      if (h->body_record_size < IPS_WIRE_BODY_RECORD_SIZE) return IPS_WIRE_BAD_BODY_RECORD_SIZE;
+      if (h->body_record_size < IPS_WIRE_BODY_RECORD_MIN) return IPS_WIRE_BAD_BODY_RECORD_SIZE;
       if ((uint64_t)len != markers_end + IPS_WIRE_BODY_SECTION_SIZE + (uint64_t)h->body_count * h->body_record_size)
         return IPS_WIRE_BAD_LENGTH;
     }
@@ -366,6 +383,18 @@ static inline void ips_wire_read_body(const uint8_t* buf, const struct ips_wire_
   b->flags = ips_wire_get_u16(r + IPS_WIRE_BODY_FLAGS);
   b->id_count = ips_wire_get_u16(r + IPS_WIRE_BODY_ID_COUNT);
   for (i = 0; i < IPS_WIRE_BODY_MAX_IDS; ++i) b->ids[i] = ips_wire_get_u32(r + IPS_WIRE_BODY_IDS + 4u * i);
+  b->vx = b->vy = b->vz = b->yaw_rate = 0.0f;
+  if (h->body_record_size < IPS_WIRE_BODY_RECORD_SIZE) {
+    /* A 100-byte record (no velocity fields): whatever its flags say, nothing was measured. */
+    b->flags = (uint16_t)(b->flags & ~(IPS_WIRE_BODY_HAS_VELOCITY | IPS_WIRE_BODY_HAS_YAW_RATE));
+    return;
+  }
+  if (b->flags & IPS_WIRE_BODY_HAS_VELOCITY) {
+    b->vx = ips_wire_get_f32(r + IPS_WIRE_BODY_VX);
+    b->vy = ips_wire_get_f32(r + IPS_WIRE_BODY_VY);
+    b->vz = ips_wire_get_f32(r + IPS_WIRE_BODY_VZ);
+  }
+  if (b->flags & IPS_WIRE_BODY_HAS_YAW_RATE) b->yaw_rate = ips_wire_get_f32(r + IPS_WIRE_BODY_YAW_RATE);
 }
 
 /* ---- Unicast subscriptions (output `type: subscriptions`) ----

@@ -9,14 +9,33 @@ namespace ips {
 BodyTrack::BodyTrack(std::vector<BodyDef> bodies, const BodyTrackOptions& options)
     : estimator_(std::move(bodies)), options_(options), tracks_(estimator_.bodies().size()) {}
 
-Eigen::Vector3d BodyTrack::velocity(const Track& track) const {
+Eigen::Vector3d BodyTrack::velocity(const Track& track) {
   // Newest minus oldest published position within the span: enough to move a view forward by
   // one frame period (33 ms at 0.5 m/s is 1.7 cm; a 10 % velocity error leaves 1.7 mm).
   if (track.path.size() < 2) return Eigen::Vector3d::Zero();
-  const auto& [t1, p1] = track.path.back();
-  const auto& [t0, p0] = track.path.front();
-  if (t1 <= t0) return Eigen::Vector3d::Zero();
-  return (p1 - p0) / (1e-9 * static_cast<double>(t1 - t0));
+  const Track::Pose& p1 = track.path.back();
+  const Track::Pose& p0 = track.path.front();
+  if (p1.t_ns <= p0.t_ns) return Eigen::Vector3d::Zero();
+  return (p1.position - p0.position) / (1e-9 * static_cast<double>(p1.t_ns - p0.t_ns));
+}
+
+void BodyTrack::set_velocity(const Track& track, FusedBody& f) {
+  f.has_velocity = track.path.size() >= 2 && track.path.back().t_ns > track.path.front().t_ns;
+  f.velocity = velocity(track);
+  f.has_yaw_rate = false;
+  f.yaw_rate = 0.0;
+  const Track::Pose* first = nullptr;
+  const Track::Pose* last = nullptr;
+  for (const auto& p : track.path)
+    if (p.has_yaw) {
+      if (!first) first = &p;
+      last = &p;
+    }
+  // Yaw difference taken the short way round: a body turns less than half a turn in a span.
+  if (first && last && last->t_ns > first->t_ns) {
+    f.has_yaw_rate = true;
+    f.yaw_rate = std::remainder(last->yaw - first->yaw, 2 * M_PI) / (1e-9 * static_cast<double>(last->t_ns - first->t_ns));
+  }
 }
 
 void BodyTrack::add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_real_ns,
@@ -73,10 +92,11 @@ void BodyTrack::add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_rea
     FusedBody& f = fused.front();
     f.t_mono_ns = t_mono_ns;
     f.t_real_ns = t_real_ns;
+    track.path.push_back({t_mono_ns, f.pose.position, f.has_yaw, f.pose.yaw});
+    while (track.path.size() > 1 && track.path.front().t_ns < t_mono_ns - span_ns) track.path.pop_front();
+    set_velocity(track, f);
     track.published = true;
     track.last = f;
-    track.path.emplace_back(t_mono_ns, f.pose.position);
-    while (track.path.size() > 1 && track.path.front().first < t_mono_ns - span_ns) track.path.pop_front();
     out.push_back(std::move(f));
   }
   std::sort(out.begin(), out.end(), [](const FusedBody& a, const FusedBody& b) { return a.body < b.body; });

@@ -176,6 +176,8 @@ int run_listen(ListenOptions o) {
         for (const auto id : b.ids) std::printf(" %u", id);
         if (b.id_count > b.ids.size()) std::printf(" +%zu", b.id_count - b.ids.size());
         print_rate_age(v.arrivals, v.capture_real_ns, now, real);
+        if (b.has_velocity) std::printf("  v (%.2f, %.2f) m/s", b.vx, b.vy);
+        if (b.has_yaw_rate) std::printf("  yaw rate %.1f deg/s", b.yaw_rate * 180.0 / std::numbers::pi);
         std::printf("\n");
       }
       std::fflush(stdout);

@@ -243,6 +243,12 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     b.id_count = static_cast<std::uint16_t>(std::min<std::size_t>(f.marker_ids.size(), 0xffff));
     for (std::size_t k = 0; k < f.marker_ids.size() && k < IPS_WIRE_BODY_MAX_IDS; ++k)
       b.ids.push_back(static_cast<std::uint32_t>(f.marker_ids[k]));
+    b.has_velocity = f.has_velocity;
+    b.vx = f.velocity.x();
+    b.vy = f.velocity.y();
+    b.vz = f.velocity.z();
+    b.has_yaw_rate = f.has_yaw_rate;
+    b.yaw_rate = f.yaw_rate;
     d.bodies.push_back(std::move(b));
   }
   rt.publisher->publish(d);

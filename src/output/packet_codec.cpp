@@ -129,6 +129,12 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
     b.spread = finite_or_throw(w.spread, "spread");
     b.dt_us = w.dt_us;
     b.has_yaw = (w.flags & IPS_WIRE_BODY_HAS_YAW) != 0;
+    b.has_velocity = (w.flags & IPS_WIRE_BODY_HAS_VELOCITY) != 0;
+    b.vx = finite_or_throw(w.vx, "vx");
+    b.vy = finite_or_throw(w.vy, "vy");
+    b.vz = finite_or_throw(w.vz, "vz");
+    b.has_yaw_rate = (w.flags & IPS_WIRE_BODY_HAS_YAW_RATE) != 0;
+    b.yaw_rate = finite_or_throw(w.yaw_rate, "yaw_rate");
     b.id_count = w.id_count;
     b.ids.assign(w.ids, w.ids + std::min<unsigned>(w.id_count, IPS_WIRE_BODY_MAX_IDS));
     d.bodies.push_back(std::move(b));
@@ -211,7 +217,16 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
       ips_wire_put_f32(r + IPS_WIRE_BODY_QUALITY, static_cast<float>(b.quality));
       ips_wire_put_f32(r + IPS_WIRE_BODY_SPREAD, static_cast<float>(b.spread));
       ips_wire_put_i32(r + IPS_WIRE_BODY_DT_US, b.dt_us);
-      ips_wire_put_u16(r + IPS_WIRE_BODY_FLAGS, b.has_yaw ? IPS_WIRE_BODY_HAS_YAW : 0);
+      ips_wire_put_u16(r + IPS_WIRE_BODY_FLAGS,
+                       static_cast<std::uint16_t>((b.has_yaw ? IPS_WIRE_BODY_HAS_YAW : 0u) |
+                                                  (b.has_velocity ? IPS_WIRE_BODY_HAS_VELOCITY : 0u) |
+                                                  (b.has_yaw_rate ? IPS_WIRE_BODY_HAS_YAW_RATE : 0u)));
+      if (b.has_velocity) {
+        ips_wire_put_f32(r + IPS_WIRE_BODY_VX, static_cast<float>(b.vx));
+        ips_wire_put_f32(r + IPS_WIRE_BODY_VY, static_cast<float>(b.vy));
+        ips_wire_put_f32(r + IPS_WIRE_BODY_VZ, static_cast<float>(b.vz));
+      }
+      if (b.has_yaw_rate) ips_wire_put_f32(r + IPS_WIRE_BODY_YAW_RATE, static_cast<float>(b.yaw_rate));
       const std::size_t count = std::min<std::size_t>(std::max<std::size_t>(b.id_count, b.ids.size()), 0xffff);
       ips_wire_put_u16(r + IPS_WIRE_BODY_ID_COUNT, static_cast<std::uint16_t>(count));
       for (std::size_t k = 0; k < b.ids.size() && k < IPS_WIRE_BODY_MAX_IDS; ++k)

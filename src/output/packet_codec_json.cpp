@@ -48,7 +48,17 @@ void append_body_json(std::string& out, const BodyRecord& b) {
     n = std::snprintf(buf, sizeof buf, i ? ",%" PRIu32 : "%" PRIu32, b.ids[i]);
     out.append(buf, static_cast<std::size_t>(n));
   }
-  out += "]}";
+  out += "]";
+  // Present exactly when measured (the binary record's HAS_VELOCITY / HAS_YAW_RATE flags).
+  if (b.has_velocity) {
+    n = std::snprintf(buf, sizeof buf, ",\"vx\":%.4f,\"vy\":%.4f,\"vz\":%.4f", b.vx, b.vy, b.vz);
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  if (b.has_yaw_rate) {
+    n = std::snprintf(buf, sizeof buf, ",\"yaw_rate\":%.4f", b.yaw_rate);
+    out.append(buf, static_cast<std::size_t>(n));
+  }
+  out += "}";
 }
 
 namespace {
@@ -158,6 +168,14 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
         if (!id.is_number_unsigned() || id.get<std::uint64_t>() > 0xffffffffu) malformed("a body id is not a u32");
         b.ids.push_back(static_cast<std::uint32_t>(id.get<std::uint64_t>()));
       }
+      b.has_velocity = bj.contains("vx") || bj.contains("vy") || bj.contains("vz");
+      if (b.has_velocity) {  // all three, or the body is malformed
+        b.vx = get_number(bj, "vx");
+        b.vy = get_number(bj, "vy");
+        b.vz = get_number(bj, "vz");
+      }
+      b.has_yaw_rate = bj.contains("yaw_rate");
+      if (b.has_yaw_rate) b.yaw_rate = get_number(bj, "yaw_rate");
       d.bodies.push_back(std::move(b));
     }
   }

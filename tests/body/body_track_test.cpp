@@ -19,16 +19,17 @@ std::vector<BodyDef> two_marker_robot() {
   return {b};
 }
 
-// What a camera would report for marker `face` of the robot at (x, y), heading 0.
-BodyObservation view(int camera, int face, double x, double y, std::int64_t t_ns) {
+// What a camera would report for marker `face` of the robot at (x, y), heading `yaw` (the
+// marker centre is only used for the baseline yaw of two markers, written for heading 0).
+BodyObservation view(int camera, int face, double x, double y, std::int64_t t_ns, double yaw = 0.0) {
   BodyObservation o;
   o.body = 0;
   o.id = face == 0 ? 7 : 8;
   o.camera_index = camera;
   o.face = FaceClass::kUp;
   o.faces = {face};
-  o.yaws = {0.0};
-  o.qs = {Eigen::Quaterniond::Identity()};
+  o.yaws = {yaw};
+  o.qs = {Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()))};
   o.positions = {Eigen::Vector3d(x, y, 0)};
   o.marker_centre = Eigen::Vector3d(x + (face == 0 ? 0.2 : -0.2), y, 0.25);
   o.area_px = 900;
@@ -81,6 +82,33 @@ TEST(BodyTrack, OtherCamerasViewsAreMovedForwardByTheBodysVelocity) {
   EXPECT_EQ(out[0].t_mono_ns, 120'000'000);
   EXPECT_NEAR(out[0].pose.position.x(), 0.12, 1e-6);
   EXPECT_NEAR(out[0].pose.yaw, 0.0, 1e-6);
+}
+
+TEST(BodyTrack, EachPoseCarriesTheVelocityAndYawRateOverTheSpanTheShortWayRound) {
+  BodyTrackOptions options;
+  options.velocity_span_s = 0.1;
+  BodyTrack track(two_marker_robot(), options);
+  // 0.6 m/s along +x and 0.4 m/s along -y, turning at +2 rad/s through +-pi (yaw 3.0 -> -3.04).
+  auto yaw_at = [](double t) { return std::remainder(3.0 + 2.0 * t, 2 * M_PI); };
+  std::vector<FusedBody> out;
+  for (int k = 0; k <= 10; ++k) {
+    const double t = 0.02 * k;
+    const auto t_ns = static_cast<std::int64_t>(std::llround(t * 1e9));
+    const std::vector<BodyObservation> v{view(0, 0, 1.0 + 0.6 * t, 2.0 - 0.4 * t, t_ns, yaw_at(t))};
+    track.add(0, t_ns, t_ns, v, mean(), out);
+  }
+  ASSERT_EQ(out.size(), 11u);
+  EXPECT_FALSE(out[0].has_velocity);  // one pose: nothing to difference
+  EXPECT_FALSE(out[0].has_yaw_rate);
+  for (std::size_t k = 1; k < out.size(); ++k) {
+    ASSERT_TRUE(out[k].has_velocity) << k;
+    ASSERT_TRUE(out[k].has_yaw_rate) << k;
+    EXPECT_NEAR(out[k].velocity.x(), 0.6, 1e-6) << k;
+    EXPECT_NEAR(out[k].velocity.y(), -0.4, 1e-6) << k;
+    EXPECT_NEAR(out[k].velocity.z(), 0.0, 1e-9) << k;
+    EXPECT_NEAR(out[k].yaw_rate, 2.0, 1e-6) << k;  // not -6.3 rad/s across the wrap
+  }
+  EXPECT_LT(out[10].pose.yaw, 0.0);  // the turn went through +-pi
 }
 
 TEST(BodyTrack, ALateFrameIsMergedButNeverPublishedBackInTime) {

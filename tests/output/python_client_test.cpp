@@ -84,7 +84,15 @@ TEST(PythonClient, DecodesVersion2Bodies) {
   b.dt_us = -40;
   b.id_count = 5;
   b.ids = {1, 2, 3, 9};
-  d.bodies = {b};
+  b.has_velocity = true;
+  b.vx = 0.25;
+  b.vy = -0.5;
+  b.vz = 0.125;
+  d.bodies = {b, b};
+  d.bodies[1].name = "still";
+  d.bodies[1].has_velocity = false;  // no velocity measured yet: no keys
+  d.bodies[1].has_yaw_rate = true;
+  d.bodies[1].yaw_rate = -1.5;
   const auto bytes = encode_binary(d);
   const auto file = std::filesystem::temp_directory_path() / ("ips_py2_" + std::to_string(::getpid()) + ".bin");
   std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
@@ -97,7 +105,7 @@ TEST(PythonClient, DecodesVersion2Bodies) {
   EXPECT_EQ(j["version"], 2);
   ASSERT_EQ(j["markers"].size(), 1u);
   EXPECT_DOUBLE_EQ(j["markers"][0]["x"].get<double>(), 0.5);
-  ASSERT_EQ(j["bodies"].size(), 1u);
+  ASSERT_EQ(j["bodies"].size(), 2u);
   const auto& jb = j["bodies"][0];
   EXPECT_EQ(jb["name"], "tb3");
   EXPECT_EQ(jb["cameras"], 3);
@@ -109,6 +117,14 @@ TEST(PythonClient, DecodesVersion2Bodies) {
   EXPECT_EQ(jb["dt_us"], -40);
   EXPECT_EQ(jb["id_count"], 5);
   EXPECT_EQ(jb["ids"], nlohmann::json({1, 2, 3, 9}));
+  EXPECT_DOUBLE_EQ(jb["vx"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(jb["vy"].get<double>(), -0.5);
+  EXPECT_DOUBLE_EQ(jb["vz"].get<double>(), 0.125);
+  EXPECT_FALSE(jb.contains("yaw_rate"));
+  const auto& still = j["bodies"][1];
+  EXPECT_EQ(still["name"], "still");
+  EXPECT_FALSE(still.contains("vx"));
+  EXPECT_DOUBLE_EQ(still["yaw_rate"].get<double>(), -1.5);
   // And a version it does not read: the clear refusal.
   auto v3 = bytes;
   v3[4] = 3;

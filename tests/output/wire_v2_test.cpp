@@ -34,6 +34,11 @@ Datagram one_body() {
   b.has_yaw = true;
   b.id_count = 2;
   b.ids = {7, 300};
+  b.has_velocity = true;
+  b.vx = 0.5;
+  b.vy = -1.0;
+  b.has_yaw_rate = true;
+  b.yaw_rate = 0.25;
   d.bodies = {b};
   return d;
 }
@@ -48,7 +53,7 @@ const std::vector<std::uint8_t> kOneBody = {
     8, 7, 6, 5, 4, 3, 2, 1,          // capture_realtime_ns
     55, 0, 0, 0, 0, 0, 0, 0,         // capture_monotonic_ns
     0, 0, 0, 0, 0, 0, 0, 0,          // publish_realtime_ns
-    1, 0, 100, 0,                    // body section: 1 body of 100 bytes
+    1, 0, 116, 0,                    // body section: 1 body of 116 bytes
     'c', 'u', 'b', 'e', 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // name, NUL-padded to 32
     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
     5, 0, 0, 0,              // camera_mask
@@ -63,13 +68,17 @@ const std::vector<std::uint8_t> kOneBody = {
     0, 0, 0x48, 0x44,        // quality 800
     0, 0, 0, 0x3e,           // spread 0.125
     0xfe, 0xff, 0xff, 0xff,  // dt_us -2
-    1, 0,                    // body_flags: has yaw
+    7, 0,                    // body_flags: has yaw, velocity, yaw rate
     2, 0,                    // id_count
     7, 0, 0, 0, 0x2c, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // ids 7, 300, 0, 0
+    0, 0, 0, 0x3f,           // vx 0.5
+    0, 0, 0x80, 0xbf,        // vy -1
+    0, 0, 0, 0,              // vz 0
+    0, 0, 0x80, 0x3e,        // yaw_rate 0.25
 };
 
 TEST(WireV2, EncoderWritesTheDocumentedBytes) {
-  ASSERT_EQ(kOneBody.size(), 152u);
+  ASSERT_EQ(kOneBody.size(), 168u);
   EXPECT_EQ(encode_binary(one_body()), kOneBody);
 }
 
@@ -79,7 +88,7 @@ TEST(WireV2, CHelpersAndCppDecoderReadTheHandWrittenBytes) {
   EXPECT_EQ(h.version, 2);
   EXPECT_EQ(h.marker_count, 0);
   ASSERT_EQ(h.body_count, 1);
-  EXPECT_EQ(h.body_record_size, 100);
+  EXPECT_EQ(h.body_record_size, 116);
   ips_wire_body b{};
   ips_wire_read_body(kOneBody.data(), &h, 0, &b);
   EXPECT_STREQ(b.name, "cube");
@@ -89,9 +98,13 @@ TEST(WireV2, CHelpersAndCppDecoderReadTheHandWrittenBytes) {
   EXPECT_EQ(b.qz, 0.5f);
   EXPECT_EQ(b.quality, 800.0f);
   EXPECT_EQ(b.dt_us, -2);
-  EXPECT_EQ(b.flags, IPS_WIRE_BODY_HAS_YAW);
+  EXPECT_EQ(b.flags, IPS_WIRE_BODY_HAS_YAW | IPS_WIRE_BODY_HAS_VELOCITY | IPS_WIRE_BODY_HAS_YAW_RATE);
   EXPECT_EQ(b.id_count, 2);
   EXPECT_EQ(b.ids[1], 300u);
+  EXPECT_EQ(b.vx, 0.5f);
+  EXPECT_EQ(b.vy, -1.0f);
+  EXPECT_EQ(b.vz, 0.0f);
+  EXPECT_EQ(b.yaw_rate, 0.25f);
 
   const Datagram d = decode_datagram(kOneBody);
   EXPECT_EQ(d.version, 2);
@@ -104,6 +117,39 @@ TEST(WireV2, CHelpersAndCppDecoderReadTheHandWrittenBytes) {
   EXPECT_EQ(r.spread, 0.125);
   EXPECT_TRUE(r.has_yaw);
   EXPECT_EQ(r.ids, (std::vector<std::uint32_t>{7, 300}));
+  EXPECT_TRUE(r.has_velocity);
+  EXPECT_EQ(r.vx, 0.5);
+  EXPECT_EQ(r.vy, -1.0);
+  EXPECT_TRUE(r.has_yaw_rate);
+  EXPECT_EQ(r.yaw_rate, 0.25);
+}
+
+TEST(WireV2, RecordsOfTheFirstBodySendersHaveNoVelocity) {
+  // The first ipsd with bodies sent 100-byte records (no velocity fields): both readers accept
+  // them and report no velocity, even if a flag bit says otherwise.
+  std::vector<std::uint8_t> old(kOneBody.begin(), kOneBody.end() - 16);
+  old[48 + 2] = 100;
+  ips_wire_header h{};
+  ASSERT_EQ(ips_wire_read_header(old.data(), old.size(), &h), IPS_WIRE_OK);
+  ips_wire_body b{};
+  b.vx = 9.0f;
+  ips_wire_read_body(old.data(), &h, 0, &b);
+  EXPECT_EQ(b.flags, IPS_WIRE_BODY_HAS_YAW);
+  EXPECT_EQ(b.vx, 0.0f);
+  EXPECT_EQ(b.yaw_rate, 0.0f);
+  const Datagram d = decode_datagram(old);
+  ASSERT_EQ(d.bodies.size(), 1u);
+  EXPECT_TRUE(d.bodies[0].has_yaw);
+  EXPECT_FALSE(d.bodies[0].has_velocity);
+  EXPECT_FALSE(d.bodies[0].has_yaw_rate);
+  EXPECT_EQ(d.bodies[0].x, 1.5);
+  // A body without a measured velocity: zeros on the wire, flags clear.
+  Datagram still = one_body();
+  still.bodies[0].has_velocity = still.bodies[0].has_yaw_rate = false;
+  const auto bytes = encode_binary(still);
+  EXPECT_EQ(bytes[48 + 4 + 80], IPS_WIRE_BODY_HAS_YAW);
+  EXPECT_EQ(std::vector<std::uint8_t>(bytes.end() - 16, bytes.end()), std::vector<std::uint8_t>(16, 0));
+  EXPECT_FALSE(decode_datagram(bytes).bodies[0].has_velocity);
 }
 
 TEST(WireV2, MarkersAndBodiesTogetherAndLongerBodyRecordsAreStepped) {
@@ -116,12 +162,12 @@ TEST(WireV2, MarkersAndBodiesTogetherAndLongerBodyRecordsAreStepped) {
   d.bodies[1].name = "robot two";
   d.bodies[1].has_yaw = false;
   auto bytes = encode_binary(d);
-  ASSERT_EQ(bytes.size(), 48u + 2 * 36 + 4 + 2 * 100);
+  ASSERT_EQ(bytes.size(), 48u + 2 * 36 + 4 + 2 * 116);
   // A later minor revision appends 8 bytes to every body record: an old v2 receiver skips them.
   std::vector<std::uint8_t> longer(bytes.begin(), bytes.begin() + 48 + 72 + 4);
-  longer[48 + 72 + 2] = 108;
+  longer[48 + 72 + 2] = 124;
   for (int i = 0; i < 2; ++i) {
-    longer.insert(longer.end(), bytes.begin() + 48 + 72 + 4 + 100 * i, bytes.begin() + 48 + 72 + 4 + 100 * (i + 1));
+    longer.insert(longer.end(), bytes.begin() + 48 + 72 + 4 + 116 * i, bytes.begin() + 48 + 72 + 4 + 116 * (i + 1));
     longer.insert(longer.end(), 8, 0xab);
   }
   for (const auto* b : {&bytes, &longer}) {
@@ -131,6 +177,7 @@ TEST(WireV2, MarkersAndBodiesTogetherAndLongerBodyRecordsAreStepped) {
     EXPECT_EQ(e.markers[1].x, 2);
     EXPECT_EQ(e.bodies[1].name, "robot two");
     EXPECT_FALSE(e.bodies[1].has_yaw);
+    EXPECT_EQ(e.bodies[1].vy, -1.0);
     ips_wire_header h{};
     ASSERT_EQ(ips_wire_read_header(b->data(), b->size(), &h), IPS_WIRE_OK);
     ips_wire_body w{};
@@ -158,6 +205,22 @@ TEST(WireV2, JsonCarriesTheBodies) {
   EXPECT_EQ(e.bodies[0].name, "cube");
   EXPECT_DOUBLE_EQ(e.bodies[0].y, -0.25);
   EXPECT_EQ(e.bodies[0].ids, (std::vector<std::uint32_t>{7, 300}));
+  EXPECT_TRUE(e.bodies[0].has_velocity);
+  EXPECT_DOUBLE_EQ(e.bodies[0].vy, -1.0);
+  EXPECT_DOUBLE_EQ(e.bodies[0].yaw_rate, 0.25);
+  // Without a measured velocity the keys are absent, and a body with only some of vx/vy/vz is
+  // malformed.
+  Datagram still = one_body();
+  still.bodies[0].has_velocity = still.bodies[0].has_yaw_rate = false;
+  const std::string js = encode_json(still);
+  EXPECT_EQ(js.find("\"vx\""), std::string::npos) << js;
+  EXPECT_EQ(js.find("yaw_rate"), std::string::npos) << js;
+  EXPECT_FALSE(decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(js.data()), js.size())).bodies[0].has_velocity);
+  std::string partial = j;
+  const auto vy = partial.find(",\"vy\"");
+  partial.erase(vy, partial.find(",\"vz\"") - vy);  // valid JSON, vx and vz without vy
+  EXPECT_THROW(decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(partial.data()), partial.size())), InputError)
+      << partial;
   // Version 1 JSON has no bodies key.
   Datagram v1;
   EXPECT_EQ(encode_json(v1).find("bodies"), std::string::npos);
