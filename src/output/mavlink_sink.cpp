@@ -96,7 +96,7 @@ void MavlinkSink::publish(const Datagram& update) {
     bool sent = false;
     for (const MarkerRecord& m : update.markers)
       if (static_cast<int>(m.id) == v.config.marker) {
-        send_pose(v, update, m);
+        send_pose(v, update, m, update.has_velocity, kNaN);
         sent = true;
         break;
       }
@@ -114,13 +114,15 @@ void MavlinkSink::publish(const Datagram& update) {
       m.quality = b.quality;
       m.spread = b.spread;
       m.dt_us = b.dt_us;
-      send_pose(v, update, m);
+      m.vx = b.vx, m.vy = b.vy, m.vz = b.vz;
+      send_pose(v, update, m, b.has_velocity, b.has_yaw_rate ? b.yaw_rate : kNaN);
       sent = true;
     }
   }
 }
 
-void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerRecord& m) {
+void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerRecord& m, bool has_velocity,
+                            double yaw_rate) {
   const std::int64_t t = update.capture_monotonic_ns + std::int64_t{m.dt_us} * 1000;
   // A sighting after a gap longer than track_gap_s starts a new track: the autopilot must not
   // treat the jump from the old position as motion (reset_counter tells it so).
@@ -161,7 +163,7 @@ void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerReco
     o.y = static_cast<float>(p.e);
     o.z = static_cast<float>(p.d);
     o.q = {static_cast<float>(std::cos(p.heading / 2)), 0.0f, 0.0f, static_cast<float>(std::sin(p.heading / 2))};
-    if (update.has_velocity) {
+    if (has_velocity) {
       // child_frame_id BODY_FRD: the velocity rotated by the heading (roll/pitch not observed).
       const double ch = std::cos(p.heading), sh = std::sin(p.heading);
       o.vx = static_cast<float>(ch * p.vn + sh * p.ve);
@@ -170,7 +172,10 @@ void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerReco
     } else {
       o.vx = o.vy = o.vz = kNaN;
     }
-    o.rollspeed = o.pitchspeed = o.yawspeed = kNaN;
+    o.rollspeed = o.pitchspeed = kNaN;
+    // The heading is clockwise, the lab's yaw counter-clockwise: FRD's yaw speed is -yaw_rate
+    // (a level vehicle; roll and pitch rates are not observed).
+    o.yawspeed = std::isnan(yaw_rate) ? kNaN : static_cast<float>(-yaw_rate);
     o.pose_covariance = pose_covariance(p, att_var);
     o.velocity_covariance[0] = kNaN;  // the record carries no velocity covariance
     o.reset_counter = v.reset_counter;

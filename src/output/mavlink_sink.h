@@ -40,7 +40,9 @@ class MavlinkSink final : public OutputSink {
     std::int64_t last_heartbeat_ns = 0;
     bool heartbeat_sent = false;
   };
-  void send_pose(Vehicle& v, const Datagram& update, const MarkerRecord& m);
+  /// `has_velocity`: m.vx/vy/vz are measured; `yaw_rate`: rad/s counter-clockwise in the lab
+  /// (NaN: not measured).
+  void send_pose(Vehicle& v, const Datagram& update, const MarkerRecord& m, bool has_velocity, double yaw_rate);
   void send(Vehicle& v, const std::vector<std::uint8_t>& frame, std::int64_t capture_realtime_ns);
 
   MavlinkOutputSettings settings_;

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <dds/dds.h>
 #include <spdlog/spdlog.h>
 
@@ -103,19 +105,36 @@ class Ros2Sink::Writers {
         count(r, dds_write(w.odom, &msg));
       }
     }
-    // Bodies: their full orientation (quaternion) on /<prefix>/<body>/pose and /tf. A body
-    // update without a measured orientation is left out: PoseStamped cannot say "unknown".
+    // Bodies: their full orientation (quaternion) on /<prefix>/<body>/pose and /tf, and
+    // Odometry once their velocity and yaw rate are measured. A body update without a measured
+    // orientation is left out: PoseStamped cannot say "unknown".
     for (const BodyRecord& b : d.bodies) {
-      if (!b.has_yaw || (!s_.pose && !s_.tf)) continue;
+      if (!b.has_yaw || (!s_.pose && !s_.tf && !s_.odometry)) continue;
       const Topics& w = body(b.name);
       if (!w.ok) {
         count(r, DDS_RETCODE_ERROR);
         continue;
       }
+      const std::int64_t t = d.capture_realtime_ns + 1000LL * b.dt_us;
       geometry_msgs_msg_dds__Pose_ pose{};
       pose.position = {b.x, b.y, b.z};
       pose.orientation = {b.qx, b.qy, b.qz, b.qw};
-      pose_and_transform(w, d.capture_realtime_ns + 1000LL * b.dt_us, pose, transforms, r);
+      pose_and_transform(w, t, pose, transforms, r);
+      if (s_.odometry && b.has_velocity && b.has_yaw_rate) {
+        Odometry msg{};
+        msg.header = header(t, s_.frame_id);
+        msg.child_frame_id = c_str(w.child_frame);
+        msg.pose.pose = pose;
+        // nav_msgs/Odometry: the twist in the child (body) frame: world vectors turned by the
+        // inverse of the body's orientation; the angular velocity is the yaw rate about world z.
+        const Eigen::Quaterniond q(b.qw, b.qx, b.qy, b.qz);
+        const Eigen::Matrix3d to_body = q.normalized().toRotationMatrix().transpose();
+        const Eigen::Vector3d v = to_body * Eigen::Vector3d(b.vx, b.vy, b.vz);
+        const Eigen::Vector3d omega = to_body * Eigen::Vector3d(0, 0, b.yaw_rate);
+        msg.twist.twist.linear = {v.x(), v.y(), v.z()};
+        msg.twist.twist.angular = {omega.x(), omega.y(), omega.z()};
+        count(r, dds_write(w.odom, &msg));
+      }
     }
     if (s_.tf && !transforms.empty()) {
       TFMessage msg{};
@@ -189,7 +208,7 @@ class Ros2Sink::Writers {
     return w;
   }
 
-  // A body's writer, created at its first update (the configuration checked its name).
+  // A body's writers, created at its first update (the configuration checked its name).
   const Topics& body(const std::string& name) {
     auto [it, fresh] = bodies_.try_emplace(name);
     Topics& w = it->second;
@@ -197,6 +216,7 @@ class Ros2Sink::Writers {
     w.child_frame = ros2::body_child_frame(s_, name);
     try {
       if (s_.pose) w.pose = create(&geometry_msgs_msg_dds__PoseStamped__desc, ros2::body_topic(s_, name, "pose"), qos_, "ros2");
+      if (s_.odometry) w.odom = create(&nav_msgs_msg_dds__Odometry__desc, ros2::body_topic(s_, name, "odom"), qos_, "ros2");
       w.ok = true;
     } catch (const std::exception& e) {
       spdlog::error("output {}: body {}: {} (its samples are counted as lost)", s_.prefix, name, e.what());

@@ -282,5 +282,60 @@ TEST(MavlinkSink, AVehicleWhoseMarkerIsOnABodyGetsTheBodysPose) {
   EXPECT_EQ(poses_seen, 1);
 }
 
+TEST(MavlinkSink, ABodysOdometryCarriesItsVelocityAndYawRate) {
+  const std::string why = test::node_missing_reason();
+  if (!why.empty()) GTEST_SKIP() << why;
+  ASSERT_TRUE(test::decoder_installed()) << "node-mavlink is not installed: run tools/setup.sh";
+  support::UdpReceiver rx;
+  OutputConfig config = mavlink_to(rx.port);
+  config.mavlink.vehicles.resize(1);  // marker 3, yaw offset 30 degrees
+  auto sink = make_output_sink(config, 0);
+  Datagram d;
+  d.version = 2;  // no marker velocity (no Kalman): the body's own velocity counts
+  d.capture_monotonic_ns = 5'000'000'000LL;
+  d.capture_realtime_ns = 1'700'000'000'000'000'000LL;
+  BodyRecord b;
+  b.name = "robot";
+  b.x = 1.5, b.y = 2.0, b.yaw = 0.3;
+  b.has_yaw = true;
+  b.ids = {3};
+  b.id_count = 1;
+  b.has_velocity = true;
+  b.vx = 0.4, b.vy = -0.1, b.vz = 0.0;
+  b.has_yaw_rate = true;
+  b.yaw_rate = 0.25;  // counter-clockwise in the lab
+  d.bodies = {b};
+  sink->publish(d);
+  d.capture_monotonic_ns += 100'000'000;
+  d.capture_realtime_ns += 100'000'000;
+  d.bodies[0].has_velocity = d.bodies[0].has_yaw_rate = false;  // not measured: NaN, never 0
+  sink->publish(d);
+  const auto frames = drain(rx);
+  std::string error;
+  const auto doc = test::decode_mavlink(
+      frames, std::filesystem::temp_directory_path() / ("mavlink_body_" + std::to_string(::getpid()) + ".bin"), error);
+  ASSERT_TRUE(doc) << error;
+  MarkerRecord m = marker(3, 1.5, 2.0, 0.0, 0.3);
+  m.vx = 0.4, m.vy = -0.1, m.vz = 0.0;
+  const MavlinkPose want = lab_to_ned(m, 30 * kDeg, 0.0);
+  std::vector<nlohmann::json> odometry;
+  for (const auto& p : (*doc)["packets"])
+    if (p["name"] == "ODOMETRY") odometry.push_back(p["fields"]);
+  ASSERT_EQ(odometry.size(), 2u) << doc->dump();
+  auto fl = [](const nlohmann::json& v) { return test::json_float(v); };
+  const double ch = std::cos(want.heading), sh = std::sin(want.heading);
+  EXPECT_FLOAT_EQ(fl(odometry[0]["vx"]), static_cast<float>(ch * want.vn + sh * want.ve));
+  EXPECT_FLOAT_EQ(fl(odometry[0]["vy"]), static_cast<float>(-sh * want.vn + ch * want.ve));
+  // Hand-computed: a body driving along its own heading (lab yaw 0.3, velocity along
+  // (cos 0.3, sin 0.3)) would read (|v|, 0); this one's velocity is 0.4124 m/s at -0.245 rad,
+  // 0.545 rad clockwise of its heading: forward 0.3535, right 0.2140.
+  EXPECT_NEAR(fl(odometry[0]["vx"]), 0.4123 * std::cos(0.5450), 2e-3);
+  EXPECT_NEAR(fl(odometry[0]["vy"]), 0.4123 * std::sin(0.5450), 2e-3);
+  EXPECT_FLOAT_EQ(fl(odometry[0]["yawspeed"]), -0.25f);  // clockwise positive about FRD's down
+  EXPECT_TRUE(std::isnan(fl(odometry[0]["rollspeed"])));
+  EXPECT_TRUE(std::isnan(fl(odometry[1]["vx"])));
+  EXPECT_TRUE(std::isnan(fl(odometry[1]["yawspeed"])));
+}
+
 }  // namespace
 }  // namespace ips

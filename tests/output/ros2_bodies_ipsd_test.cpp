@@ -1,7 +1,9 @@
 // The real ipsd with rigid bodies and a ros2 output, received over loopback by a subscriber
 // written here with the Cyclone DDS C API: every body PoseStamped is one of the daemon's own
 // UDP body records (same capture stamp, same pose, same quaternion) and near the simulator's
-// body truth, and the bodies' frames are on /tf beside the plain marker's.
+// body truth, the bodies' frames are on /tf beside the plain marker's, and their Odometry
+// carries the truth's velocity and yaw rate in the body frame.
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -25,6 +27,13 @@ namespace {
 namespace fs = std::filesystem;
 using PoseStamped = geometry_msgs_msg_dds__PoseStamped_;
 using TFMessage = tf2_msgs_msg_dds__TFMessage_;
+using Odometry = nav_msgs_msg_dds__Odometry_;
+
+double median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
 
 constexpr int kDomain = 65;
 
@@ -44,6 +53,9 @@ TEST(Ros2IpsdBodies, BodyPosesAreTheStreamsBodyRecordsWithTheirQuaternion) {
       {"turtle", test::make_reader(p, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/ipsd/turtle/pose", false)},
       {"long", test::make_reader(p, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/ipsd/long/pose", false)}};
   const auto tf = test::make_reader(p, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", true);
+  const std::map<std::string, dds_entity_t> odom_readers = {
+      {"turtle", test::make_reader(p, &nav_msgs_msg_dds__Odometry__desc, "rt/ipsd/turtle/odom", false)},
+      {"long", test::make_reader(p, &nav_msgs_msg_dds__Odometry__desc, "rt/ipsd/long/odom", false)}};
 
   test::UdpReceiver rx;
   std::string cfg = "cameras:\n";
@@ -63,6 +75,7 @@ TEST(Ros2IpsdBodies, BodyPosesAreTheStreamsBodyRecordsWithTheirQuaternion) {
   };
   std::map<std::pair<std::string, std::int64_t>, std::vector<Udp>> udp;  // (name, realtime stamp)
   std::map<std::string, std::vector<PoseStamped>> poses;
+  std::map<std::string, std::vector<Odometry>> odoms;
   std::set<std::string> tf_children;
   const bool enough = test::wait_until(
       [&] {
@@ -77,13 +90,20 @@ TEST(Ros2IpsdBodies, BodyPosesAreTheStreamsBodyRecordsWithTheirQuaternion) {
             poses[n].push_back(m);
             poses[n].back().header.frame_id = nullptr;  // the loaned string is gone after the take
           });
+        for (const auto& [name, reader] : odom_readers)
+          test::take_all<Odometry>(reader, [&, n = name](const Odometry& m) {
+            odoms[n].push_back(m);
+            odoms[n].back().header.frame_id = odoms[n].back().child_frame_id = nullptr;
+          });
         test::take_all<TFMessage>(tf, [&](const TFMessage& m) {
           for (std::uint32_t i = 0; i < m.transforms._length; ++i) tf_children.insert(m.transforms._buffer[i].child_frame_id);
         });
-        return poses["turtle"].size() >= 10 && poses["long"].size() >= 10 && tf_children.size() >= 3;
+        return poses["turtle"].size() >= 10 && poses["long"].size() >= 10 && odoms["turtle"].size() >= 10 &&
+               odoms["long"].size() >= 10 && tf_children.size() >= 3;
       },
       60.0);
   ASSERT_TRUE(enough) << poses["turtle"].size() << " turtle, " << poses["long"].size() << " long, "
+                      << odoms["turtle"].size() << " / " << odoms["long"].size() << " odom, "
                       << tf_children.size() << " tf frames\n"
                       << test::read_file(log);
   EXPECT_EQ(tf_children, (std::set<std::string>{"turtle", "long", "marker_3"}));
@@ -125,6 +145,28 @@ TEST(Ros2IpsdBodies, BodyPosesAreTheStreamsBodyRecordsWithTheirQuaternion) {
       EXPECT_LT(got.angularDistance(truth.q) * 180 / std::numbers::pi, 5.0) << name;
     }
     EXPECT_GE(matched, static_cast<int>(samples.size()) - 2) << name;
+  }
+  // Odometry: the twist in the body frame against the truth's derivatives at the same instant
+  // (the daemon's are means over fusion.velocity_span, 0.2 s: IpsdBodies bounds their p95).
+  for (const auto& [name, samples] : odoms) {
+    const std::size_t index = name == "turtle" ? 0 : 1;
+    std::vector<double> linear, angular;
+    for (const Odometry& od : samples) {
+      const auto it = udp.find({name, ns(od.header.stamp)});
+      if (it == udp.end()) continue;
+      const double t = 1e-9 * static_cast<double>(it->second.front().mono_ns - epoch), h = 1e-3;
+      const BodyPose a = scene.body_pose_at(index, t - h), b = scene.body_pose_at(index, t + h),
+                     c = scene.body_pose_at(index, t);
+      const Eigen::Vector3d v = c.q.conjugate() * ((b.position - a.position) / (2 * h));
+      const auto& tw = od.twist.twist;
+      linear.push_back(std::hypot(tw.linear.x - v.x(), tw.linear.y - v.y()));
+      angular.push_back(std::abs(tw.angular.z - std::remainder(b.yaw - a.yaw, 2 * std::numbers::pi) / (2 * h)));
+    }
+    std::printf("[ ros2    ] %s odometry: %zu matched, twist error median %.1f mm/s, %.2f deg/s\n", name.c_str(),
+                linear.size(), 1e3 * median(linear), median(angular) * 180 / std::numbers::pi);
+    ASSERT_GE(linear.size(), 5u) << name;
+    EXPECT_LT(median(linear), 0.03) << name;   // the robot drives forward at 0.5 m/s
+    EXPECT_LT(median(angular), 0.05) << name;  // turning at 0.256 rad/s
   }
   fs::remove_all(dir);
 }

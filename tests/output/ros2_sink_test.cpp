@@ -156,8 +156,11 @@ TEST_F(Ros2SinkTest, BodiesGetTheirFullOrientationOnPoseAndTf) {
   const auto cube = test::make_reader(p, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/lab/ipsd/cube/pose", true);
   const auto slab = test::make_reader(p, &geometry_msgs_msg_dds__PoseStamped__desc, "rt/lab/ipsd/slab/pose", true);
   const auto tf = test::make_reader(p, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", true);
+  const auto cube_odom = test::make_reader(p, &nav_msgs_msg_dds__Odometry__desc, "rt/lab/ipsd/cube/odom", true);
+  const auto slab_odom = test::make_reader(p, &nav_msgs_msg_dds__Odometry__desc, "rt/lab/ipsd/slab/odom", true);
   // Marker 7 and two bodies: "cube" tilted 90 degrees about x (w = x = sqrt(1/2)), seen 400 us
-  // before the capture time; "slab" with a position only (no orientation measured).
+  // before the capture time, moving at (1, 2, 0) m/s and turning at 0.5 rad/s; "slab" with a
+  // position only (no orientation measured).
   Datagram d = update(false);
   d.markers.resize(1);
   BodyRecord b;
@@ -166,6 +169,9 @@ TEST_F(Ros2SinkTest, BodiesGetTheirFullOrientationOnPoseAndTf) {
   b.qw = std::sqrt(0.5), b.qx = std::sqrt(0.5), b.qy = 0.0, b.qz = 0.0;
   b.dt_us = -400;
   b.has_yaw = true;
+  b.has_velocity = b.has_yaw_rate = true;
+  b.vx = 1.0, b.vy = 2.0, b.vz = 0.0;
+  b.yaw_rate = 0.5;
   BodyRecord position_only = b;
   position_only.name = "slab";
   position_only.has_yaw = false;
@@ -173,6 +179,7 @@ TEST_F(Ros2SinkTest, BodiesGetTheirFullOrientationOnPoseAndTf) {
 
   Ros2Sink sink(o, "outputs[0]");
   std::vector<PoseStamped> poses;
+  std::vector<Odometry> odoms;
   int tf_messages = 0;
   ASSERT_TRUE(test::wait_until(
       [&] {
@@ -193,10 +200,15 @@ TEST_F(Ros2SinkTest, BodiesGetTheirFullOrientationOnPoseAndTf) {
           EXPECT_DOUBLE_EQ(t.transform.rotation.x, std::sqrt(0.5));
           EXPECT_DOUBLE_EQ(t.transform.rotation.w, std::sqrt(0.5));
         });
-        return !poses.empty() && tf_messages > 0;
+        test::take_all<Odometry>(cube_odom, [&](const Odometry& m) {
+          EXPECT_STREQ(m.child_frame_id, "cube_base");
+          odoms.push_back(m);
+          odoms.back().header.frame_id = odoms.back().child_frame_id = nullptr;
+        });
+        return !poses.empty() && tf_messages > 0 && !odoms.empty();
       },
       10.0))
-      << poses.size() << " " << tf_messages;
+      << poses.size() << " " << tf_messages << " " << odoms.size();
   const PoseStamped& a = poses.front();
   EXPECT_EQ(a.header.stamp.sec, 1'700'000'000);
   EXPECT_EQ(a.header.stamp.nanosec, 123'056'789u);  // capture - 400 us
@@ -207,8 +219,21 @@ TEST_F(Ros2SinkTest, BodiesGetTheirFullOrientationOnPoseAndTf) {
   EXPECT_DOUBLE_EQ(a.pose.orientation.y, 0.0);
   EXPECT_DOUBLE_EQ(a.pose.orientation.z, 0.0);
   EXPECT_DOUBLE_EQ(a.pose.orientation.w, std::sqrt(0.5));
+  // Odometry: the twist in the body frame. The body's x stays world x; world y is the body's
+  // -z and world z its y (Rx(90)): v (1, 2, 0) -> (1, 0, -2), yaw rate about world z -> body y.
+  const Odometry& od = odoms.front();
+  EXPECT_EQ(od.header.stamp.nanosec, 123'056'789u);
+  EXPECT_DOUBLE_EQ(od.pose.pose.position.y, 1.5);
+  EXPECT_DOUBLE_EQ(od.pose.pose.orientation.x, std::sqrt(0.5));
+  EXPECT_NEAR(od.twist.twist.linear.x, 1.0, 1e-12);
+  EXPECT_NEAR(od.twist.twist.linear.y, 0.0, 1e-12);
+  EXPECT_NEAR(od.twist.twist.linear.z, -2.0, 1e-12);
+  EXPECT_NEAR(od.twist.twist.angular.x, 0.0, 1e-12);
+  EXPECT_NEAR(od.twist.twist.angular.y, 0.5, 1e-12);
+  EXPECT_NEAR(od.twist.twist.angular.z, 0.0, 1e-12);
   // The position-only body was never written (a reliable reader of its topic got nothing).
   EXPECT_EQ(test::take_all<PoseStamped>(slab, [](const PoseStamped&) {}), 0);
+  EXPECT_EQ(test::take_all<Odometry>(slab_odom, [](const Odometry&) {}), 0);
 }
 
 TEST_F(Ros2SinkTest, NoOdometryWithoutVelocityAndBestEffortReadersMatch) {
