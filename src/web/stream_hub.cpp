@@ -128,10 +128,13 @@ Message StreamHub::markers_message(std::int64_t now) const {
   auto& bodies = j["bodies"] = nlohmann::json::array();
   for (const auto& [name, e] : bodies_) {
     const BodyRecord& b = e.record;
-    bodies.push_back({{"name", name}, {"x", b.x}, {"y", b.y}, {"z", b.z}, {"yaw", b.yaw}, {"has_yaw", b.has_yaw},
-                      {"q", {b.qw, b.qx, b.qy, b.qz}}, {"cameras", b.camera_mask}, {"ids", b.ids},
-                      {"id_count", b.id_count}, {"quality", b.quality}, {"spread", b.spread},
-                      {"t_mono_ns", e.t_mono_ns}, {"age", age(e.t_mono_ns)}});
+    nlohmann::json o{{"name", name}, {"x", b.x}, {"y", b.y}, {"z", b.z}, {"yaw", b.yaw}, {"has_yaw", b.has_yaw},
+                     {"q", {b.qw, b.qx, b.qy, b.qz}}, {"cameras", b.camera_mask}, {"ids", b.ids},
+                     {"id_count", b.id_count}, {"quality", b.quality}, {"spread", b.spread},
+                     {"t_mono_ns", e.t_mono_ns}, {"age", age(e.t_mono_ns)}};
+    if (b.has_velocity) o.update({{"vx", b.vx}, {"vy", b.vy}, {"vz", b.vz}});  // absent: not measured
+    if (b.has_yaw_rate) o["yaw_rate"] = b.yaw_rate;
+    bodies.push_back(std::move(o));
   }
   return std::make_shared<const std::string>("event: markers\ndata: " + j.dump() + "\n\n");
 }

@@ -79,6 +79,9 @@ class WebBrowserTest : public ::testing::Test {
     c += std::string("bodies:\n") + test::kBodiesLabLong;
     c += "model_file: model.json\n";
     c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(rx_.port) + ", format: binary}\n";
+    // At 4 fps a body seen by one camera has no two poses within the default velocity span
+    // (0.2 s): no velocity (README "bodies"). 0.6 s spans three frames.
+    c += "fusion: {velocity_span: 0.6}\n";
     c += "status: {interval: 0}\n";
     c += "web: {listen: \"127.0.0.1:" + std::to_string(port_) + "\", floor: [0, 0, 4.88, 4.88], update_rate: 20}\n";
     std::ofstream(cfg) << c;
@@ -244,6 +247,10 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
   EXPECT_NEAR(by, stream_bodies.at("long")["y"].get<double>(), 0.01);
   EXPECT_EQ(elements(dom, "tr", "data-body=\"long\"").size(), 1u);
   EXPECT_EQ(elements(dom, "td", "data-field=\"yaw_deg\"").size(), 1u);
+  const auto speed = elements(dom, "td", "data-field=\"speed\"");  // parked: ~0 m/s
+  ASSERT_EQ(speed.size(), 1u);
+  ASSERT_TRUE(speed[0].count("data-value")) << "no velocity measured for a body seen for seconds";
+  EXPECT_LT(std::stod(speed[0].at("data-value")), 0.02);
   EXPECT_NE(dom.find(">1 parked-a<"), std::string::npos);
   EXPECT_EQ(elements(dom, "polygon", "class=\"footprint").size(), 3u);  // every camera has a pose model
   EXPECT_EQ(elements(dom, "rect", "data-floor=\"0,0,4.88,4.88\"").size(), 1u);

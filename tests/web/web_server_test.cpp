@@ -343,6 +343,9 @@ Datagram body_update(std::uint32_t n, std::int64_t t, std::int32_t dt_us, double
   b.has_yaw = true;
   b.id_count = 2;
   b.ids = {5, 6};
+  b.has_velocity = true;
+  b.vx = 0.3;
+  b.vy = -0.4;
   d.bodies.push_back(b);
   return d;
 }
@@ -373,6 +376,9 @@ TEST_F(WebServerTest, StreamsBodiesWithTheirPoseMarkersAndCamerasNeverBackInTime
   EXPECT_EQ(body["ids"], nlohmann::json({5, 6}));
   EXPECT_EQ(body["id_count"], 2);
   EXPECT_EQ(body["t_mono_ns"], t0 + 2'000'000);
+  EXPECT_EQ(body["vx"], 0.3);
+  EXPECT_EQ(body["vy"], -0.4);
+  EXPECT_FALSE(body.contains("yaw_rate"));  // not measured: absent, not 0
   EXPECT_GE(body["age"].get<double>(), -0.01);
   EXPECT_LT(body["age"].get<double>(), 5.0);
   // A newer pose replaces it.

@@ -45,6 +45,8 @@ function drawBodyRow(tr, b, cams) {
   cell(tr, 'y', b.y, fmt(b.y, 3), true);
   cell(tr, 'z', b.z, fmt(b.z, 3), true);
   cell(tr, 'yaw_deg', b.has_yaw ? b.yaw * 180 / Math.PI : null, b.has_yaw ? fmt(b.yaw * 180 / Math.PI, 1) : '–', true);
+  const speed = b.vx === undefined ? null : Math.hypot(b.vx, b.vy);
+  cell(tr, 'speed', speed, fmt(speed, 2), true);
   cell(tr, 'ids', b.ids.join(','), b.ids.join(' ') + (b.id_count > b.ids.length ? ' …' : ''));
   cell(tr, 'cameras', cams.join(','), cams.join(' ') || '–');
   cell(tr, 'age', b.age, fmt(b.age, 1), true);
