@@ -22,6 +22,21 @@ std::string run(const std::string& command) {
   return out;
 }
 
+// What tools/ipsd_client.py prints for `bytes`: decode() as JSON, or the Malformed message
+// (`malformed_message`).
+std::string python_decode(const std::vector<std::uint8_t>& bytes, bool malformed_message = false) {
+  const auto file = std::filesystem::temp_directory_path() / ("ips_py_" + std::to_string(::getpid()) + ".bin");
+  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                              static_cast<std::streamsize>(bytes.size()));
+  const std::string import = "import sys, json; sys.path.insert(0, '" IPS_SOURCE_DIR "/tools'); import ipsd_client as c";
+  const std::string data = "open('" + file.string() + "', 'rb').read()";
+  const std::string out = run("python3 -c \"" + import +
+                              (malformed_message ? "\ntry: c.decode(" + data + ")\nexcept c.Malformed as e: print(e)\""
+                                                 : "; print(json.dumps(c.decode(" + data + ")))\""));
+  std::filesystem::remove(file);
+  return out;
+}
+
 TEST(PythonClient, DecodesTheBinaryFormLikeTheCppDecoder) {
   if (std::system("python3 -c 'import struct' >/dev/null 2>&1") != 0) GTEST_SKIP() << "no python3";
   Datagram d;
@@ -41,15 +56,7 @@ TEST(PythonClient, DecodesTheBinaryFormLikeTheCppDecoder) {
   m.dt_us = -1234;
   m.vx = 0.75;
   d.markers = {m};
-  const auto bytes = encode_binary(d);
-  const auto file = std::filesystem::temp_directory_path() / ("ips_py_" + std::to_string(::getpid()) + ".bin");
-  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
-                                              static_cast<std::streamsize>(bytes.size()));
-  const std::string out = run("python3 -c \"import sys, json; sys.path.insert(0, '" IPS_SOURCE_DIR
-                              "/tools'); import ipsd_client as c; print(json.dumps(c.decode(open('" +
-                              file.string() + "', 'rb').read())))\"");
-  std::filesystem::remove(file);
-  const auto j = nlohmann::json::parse(out);
+  const auto j = nlohmann::json::parse(python_decode(encode_binary(d)));
   EXPECT_EQ(j["seq"], 41);
   EXPECT_EQ(j["update"], 7);
   EXPECT_EQ(j["t_capture_real_ns"], 1'700'000'000'000'000'123);
@@ -94,14 +101,7 @@ TEST(PythonClient, DecodesVersion2Bodies) {
   d.bodies[1].has_yaw_rate = true;
   d.bodies[1].yaw_rate = -1.5;
   const auto bytes = encode_binary(d);
-  const auto file = std::filesystem::temp_directory_path() / ("ips_py2_" + std::to_string(::getpid()) + ".bin");
-  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
-                                              static_cast<std::streamsize>(bytes.size()));
-  const std::string out = run("python3 -c \"import sys, json; sys.path.insert(0, '" IPS_SOURCE_DIR
-                              "/tools'); import ipsd_client as c; print(json.dumps(c.decode(open('" +
-                              file.string() + "', 'rb').read())))\"");
-  std::filesystem::remove(file);
-  const auto j = nlohmann::json::parse(out);
+  const auto j = nlohmann::json::parse(python_decode(bytes));
   EXPECT_EQ(j["version"], 2);
   ASSERT_EQ(j["markers"].size(), 1u);
   EXPECT_DOUBLE_EQ(j["markers"][0]["x"].get<double>(), 0.5);
@@ -125,14 +125,23 @@ TEST(PythonClient, DecodesVersion2Bodies) {
   EXPECT_EQ(still["name"], "still");
   EXPECT_FALSE(still.contains("vx"));
   EXPECT_DOUBLE_EQ(still["yaw_rate"].get<double>(), -1.5);
+  // The first senders' 100-byte body records: decoded, without velocity keys.
+  const std::size_t section = 48 + 36 * d.markers.size();
+  std::vector<std::uint8_t> first(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(section + 4));
+  first[section + 2] = 100;
+  for (std::size_t i = 0; i < d.bodies.size(); ++i) {
+    const auto record = bytes.begin() + static_cast<std::ptrdiff_t>(section + 4 + 116 * i);
+    first.insert(first.end(), record, record + 100);
+  }
+  const auto old = nlohmann::json::parse(python_decode(first));
+  ASSERT_EQ(old["bodies"].size(), 2u);
+  EXPECT_DOUBLE_EQ(old["bodies"][0]["x"].get<double>(), 1.25);
+  EXPECT_FALSE(old["bodies"][0].contains("vx"));
+  EXPECT_FALSE(old["bodies"][1].contains("yaw_rate"));
   // And a version it does not read: the clear refusal.
   auto v3 = bytes;
   v3[4] = 3;
-  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(v3.data()), static_cast<std::streamsize>(v3.size()));
-  const std::string refused = run("python3 -c \"import sys; sys.path.insert(0, '" IPS_SOURCE_DIR
-                                  "/tools'); import ipsd_client as c\ntry: c.decode(open('" +
-                                  file.string() + "', 'rb').read())\nexcept c.Malformed as e: print(e)\"");
-  std::filesystem::remove(file);
+  const std::string refused = python_decode(v3, /*malformed_message=*/true);
   EXPECT_EQ(refused, "ipsd stream version 3: this client reads versions 1 and 2; update it\n");
 }
 
