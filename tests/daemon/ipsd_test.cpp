@@ -36,16 +36,7 @@ class IpsdTest : public ::testing::Test {
     dir_ = new fs::path(fs::temp_directory_path() / ("ipsd_test_" + std::to_string(::getpid())));
     fs::create_directories(*dir_);
     // The published scene with its calibration paths made absolute and two moving robots.
-    const std::string scene = ips::test::published_scene_with(R"(markers:
-  - id: 1
-    length: 0.20
-    height: 0.15
-    trajectory: {type: circle, center: [2.4, 2.4], radius: 1.0, speed: 0.3}
-  - id: 2
-    length: 0.20
-    height: 0.10
-    trajectory: {type: line, from: [1.6, 1.2], to: [3.2, 3.6], speed: 0.25}
-)");
+    const std::string scene = ips::test::published_scene_with(ips::test::kTwoMovingRobots);
     std::ofstream(*dir_ / "scene.yaml") << scene;
     // The model: the plane mapper fitted per camera on exact simulated pairs.
     test::write_plane_model(*dir_ / "scene.yaml", *dir_ / "model.json");

@@ -35,16 +35,7 @@ class Ros2IpsdTest : public ::testing::Test {
     test::use_loopback_dds();
     dir_ = new fs::path(fs::temp_directory_path() / ("ros2_ipsd_test_" + std::to_string(::getpid())));
     fs::create_directories(*dir_);
-    std::ofstream(*dir_ / "scene.yaml") << test::published_scene_with(R"(markers:
-  - id: 1
-    length: 0.20
-    height: 0.15
-    trajectory: {type: circle, center: [2.4, 2.4], radius: 1.0, speed: 0.3}
-  - id: 2
-    length: 0.20
-    height: 0.10
-    trajectory: {type: line, from: [1.6, 1.2], to: [3.2, 3.6], speed: 0.25}
-)");
+    std::ofstream(*dir_ / "scene.yaml") << test::published_scene_with(test::kTwoMovingRobots);
     test::write_plane_model(*dir_ / "scene.yaml", *dir_ / "model.json");
   }
   static void TearDownTestSuite() {

@@ -21,4 +21,17 @@ inline std::string published_scene_with(const std::string& markers_yaml) {
   return scene.substr(0, scene.find("\nmarkers:")) + "\n" + markers_yaml;
 }
 
+/// Two robots driving under the published cameras (marker 1 on a 1 m circle at 0.3 m/s, 0.15 m
+/// up; marker 2 on a line at 0.25 m/s, 0.10 m up): the scene markers of the daemon suites.
+inline const char* const kTwoMovingRobots = R"(markers:
+  - id: 1
+    length: 0.20
+    height: 0.15
+    trajectory: {type: circle, center: [2.4, 2.4], radius: 1.0, speed: 0.3}
+  - id: 2
+    length: 0.20
+    height: 0.10
+    trajectory: {type: line, from: [1.6, 1.2], to: [3.2, 3.6], speed: 0.25}
+)";
+
 }  // namespace ips::test
