@@ -12,26 +12,14 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include "command.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CmdResult {
-  int status = -1;
-  std::string out;
-};
-
-CmdResult run(const std::string& program, const std::string& args) {
-  CmdResult r;
-  const std::string cmd = std::string(IPS_BINARY_DIR) + "/" + program + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p) != nullptr) r.out += buf.data();
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
+ips::test::CommandResult run(const std::string& program, const std::string& args) {
+  return ips::test::run_program(program, args);
 }
 
 fs::path temp_dir(const std::string& name) {

@@ -13,31 +13,17 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "ips/camera_model.h"
+#include "command.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kIps = std::string(IPS_BINARY_DIR) + "/ips";
 const std::string kScene = std::string(IPS_CONFIG_DIR) + "/scenes/calib_lenses.yaml";
 const std::string kBoard = "charuco:7x5:0.04:0.03:DICT_5X5_100";
 
-struct CmdResult {
-  int status = -1;
-  std::string out;
-};
-
-CmdResult run(const std::string& args, bool with_stderr = true) {
-  CmdResult r;
-  const std::string cmd = kIps + " " + args + (with_stderr ? " 2>&1" : " 2>/dev/null");
-  FILE* p = popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p) != nullptr) r.out += buf.data();
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using CmdResult = ips::test::CommandResult;
+CmdResult run(const std::string& args, bool with_stderr = true) { return ips::test::run_program("ips", args, with_stderr); }
 
 std::string numbered(const char* pattern, int i) {
   char buf[64];

@@ -11,27 +11,14 @@
 #include <nlohmann/json.hpp>
 
 #include "test_util.h"
+#include "command.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CommandResult {
-  int status = -1;
-  std::string out;  // stdout and stderr
-};
-
-CommandResult run(const std::string& args) {
-  const std::string cmd = std::string(IPS_BINARY_DIR) + "/ips " + args + " 2>&1";
-  CommandResult r;
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buf{};
-  while (std::fgets(buf.data(), static_cast<int>(buf.size()), pipe) != nullptr) r.out += buf.data();
-  const int st = ::pclose(pipe);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using CommandResult = ips::test::CommandResult;
+CommandResult run(const std::string& args) { return ips::test::run_program("ips", args); }  // stderr merged
 
 class Cli : public ::testing::Test {
  protected:

@@ -12,30 +12,16 @@
 
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
+#include "command.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
 const fs::path kData = IPS_TEST_DATA_DIR;
-const std::string kIps = std::string(IPS_BINARY_DIR) + "/ips";
 
-struct CmdResult {
-  int status = -1;
-  std::string out;
-};
-
-CmdResult run(const std::string& args) {
-  CmdResult r;
-  const std::string cmd = kIps + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p) != nullptr) r.out += buf.data();
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using CmdResult = ips::test::CommandResult;
+CmdResult run(const std::string& args) { return ips::test::run_program("ips", args); }
 
 fs::path temp_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("ips_cli_test_" + name);

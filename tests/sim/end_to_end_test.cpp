@@ -10,22 +10,17 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include "release_only.h"
+#include "command.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kIps = std::string(IPS_BINARY_DIR) + "/ips";
 const std::string kScene = (fs::path(IPS_CONFIG_DIR) / "scenes/ou2023.yaml").string();
 
 std::pair<int, std::string> run(const std::string& args) {
-  std::string out;
-  FILE* p = popen((kIps + " " + args + " 2>&1").c_str(), "r");
-  if (p == nullptr) return {-1, out};
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p) != nullptr) out += buf.data();
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+  const auto r = ips::test::run_program("ips", args);
+  return {r.status, r.out};
 }
 
 TEST(EndToEnd, SimCollectFitEvalMeetsThePublishedAccuracy) {
