@@ -90,6 +90,12 @@ bool same_options(const ips::TrackFusionOptions& a, const ips::TrackFusionOption
          a.kalman_options.reset_after_s == b.kalman_options.reset_after_s &&
          a.kalman_options.initial_velocity_std == b.kalman_options.initial_velocity_std;
 }
+
+// A record's time relative to its datagram's header (wire.h: dt_us <= 0).
+std::int32_t dt_us(std::int64_t record_ns, std::int64_t header_ns) {
+  return static_cast<std::int32_t>(std::clamp<std::int64_t>((record_ns - header_ns) / 1000, -1'000'000'000, 0));
+}
+
 }  // namespace
 
 FusionWorker::FusionWorker(RuntimeHolder& runtime, ObservationQueue& queue, std::vector<CameraStats*> cameras,
@@ -211,8 +217,7 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     m.yaw = f.yaw;
     m.quality = f.quality;
     m.spread = f.spread;
-    m.dt_us = static_cast<std::int32_t>(
-        std::clamp<std::int64_t>((f.t_mono_ns - d.capture_monotonic_ns) / 1000, -1'000'000'000, 0));
+    m.dt_us = dt_us(f.t_mono_ns, d.capture_monotonic_ns);
     m.vx = f.velocity.x();
     m.vy = f.velocity.y();
     m.vz = f.velocity.z();
@@ -237,8 +242,7 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     b.qz = f.pose.q.z();
     b.quality = f.quality;
     b.spread = f.spread;
-    b.dt_us = static_cast<std::int32_t>(
-        std::clamp<std::int64_t>((f.t_mono_ns - d.capture_monotonic_ns) / 1000, -1'000'000'000, 0));
+    b.dt_us = dt_us(f.t_mono_ns, d.capture_monotonic_ns);
     b.has_yaw = f.has_yaw;
     b.id_count = static_cast<std::uint16_t>(std::min<std::size_t>(f.marker_ids.size(), 0xffff));
     for (std::size_t k = 0; k < f.marker_ids.size() && k < IPS_WIRE_BODY_MAX_IDS; ++k)

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <string_view>
 #include <stdexcept>
 #include <vector>
 
@@ -198,13 +199,7 @@ class Ros2Sink::Writers {
     Topics& w = it->second;
     if (!fresh) return w;
     w.child_frame = ros2::child_frame(s_, id);
-    try {
-      if (s_.pose) w.pose = create(&geometry_msgs_msg_dds__PoseStamped__desc, ros2::marker_topic(s_, id, "pose"), qos_, "ros2");
-      if (s_.odometry) w.odom = create(&nav_msgs_msg_dds__Odometry__desc, ros2::marker_topic(s_, id, "odom"), qos_, "ros2");
-      w.ok = true;
-    } catch (const std::exception& e) {
-      spdlog::error("output {}: marker {}: {} (its samples are counted as lost)", s_.prefix, id, e.what());
-    }
+    open_writers(w, [&](std::string_view leaf) { return ros2::marker_topic(s_, id, leaf); }, "marker " + std::to_string(id));
     return w;
   }
 
@@ -214,14 +209,21 @@ class Ros2Sink::Writers {
     Topics& w = it->second;
     if (!fresh) return w;
     w.child_frame = ros2::body_child_frame(s_, name);
+    open_writers(w, [&](std::string_view leaf) { return ros2::body_topic(s_, name, leaf); }, "body " + name);
+    return w;
+  }
+
+  // The pose and odom writers (as configured) on the topics `topic(leaf)` names; a failure is
+  // logged and leaves w.ok false, so that the object's samples are counted as lost.
+  template <typename TopicOf>
+  void open_writers(Topics& w, const TopicOf& topic, const std::string& what) {
     try {
-      if (s_.pose) w.pose = create(&geometry_msgs_msg_dds__PoseStamped__desc, ros2::body_topic(s_, name, "pose"), qos_, "ros2");
-      if (s_.odometry) w.odom = create(&nav_msgs_msg_dds__Odometry__desc, ros2::body_topic(s_, name, "odom"), qos_, "ros2");
+      if (s_.pose) w.pose = create(&geometry_msgs_msg_dds__PoseStamped__desc, topic("pose"), qos_, "ros2");
+      if (s_.odometry) w.odom = create(&nav_msgs_msg_dds__Odometry__desc, topic("odom"), qos_, "ros2");
       w.ok = true;
     } catch (const std::exception& e) {
-      spdlog::error("output {}: body {}: {} (its samples are counted as lost)", s_.prefix, name, e.what());
+      spdlog::error("output {}: {}: {} (its samples are counted as lost)", s_.prefix, what, e.what());
     }
-    return w;
   }
 
   const Ros2OutputSettings& s_;

@@ -142,16 +142,12 @@ Message StreamHub::markers_message(std::int64_t now) const {
 void StreamHub::merge(const Datagram& d) {
   last_update_ = d.update;
   // Fusion never goes back in time per marker or body; the tables keep it so.
-  for (const MarkerRecord& m : d.markers) {
-    auto& e = table_[m.id];
-    const std::int64_t t = d.capture_monotonic_ns + static_cast<std::int64_t>(m.dt_us) * 1000;
-    if (t >= e.t_mono_ns) e = {m, t};
-  }
-  for (const BodyRecord& b : d.bodies) {
-    auto& e = bodies_[b.name];
-    const std::int64_t t = d.capture_monotonic_ns + static_cast<std::int64_t>(b.dt_us) * 1000;
-    if (t >= e.t_mono_ns) e = {b, t};
-  }
+  const auto keep_newest = [&d](auto& entry, const auto& record) {
+    const std::int64_t t = d.capture_monotonic_ns + static_cast<std::int64_t>(record.dt_us) * 1000;
+    if (t >= entry.t_mono_ns) entry = {record, t};
+  };
+  for (const MarkerRecord& m : d.markers) keep_newest(table_[m.id], m);
+  for (const BodyRecord& b : d.bodies) keep_newest(bodies_[b.name], b);
 }
 
 bool StreamHub::forget_old(std::int64_t now) {
