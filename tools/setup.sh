@@ -1,8 +1,22 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package ipsd needs to build, test and run.
+# Installs the Debian 12 packages ipsd needs, in two layers:
+#   bash tools/setup.sh          build and run: compiler, libraries, what the package build uses
+#                                (tools/demo.sh, tools/package.sh)
+#   bash tools/setup.sh --test   the above, plus what the test suite adds: GoogleTest, Google
+#                                Benchmark, clang-14 for the sanitizer/fuzz build, chromium for the
+#                                web view's tests, node-mavlink (npm) for the MAVLink tests and
+#                                lintian for the package test (tools/test.sh)
 # Idempotent: packages already present are left as they are.
 set -euo pipefail
 
+layer=run
+case "${1:-}" in
+  "") ;;
+  --test) layer=test ;;
+  *) echo "setup.sh: unknown option '$1' (usage: setup.sh [--test])" >&2; exit 2 ;;
+esac
+
+# Build and run (and build the .deb: tools/package.sh).
 PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   libopencv-dev libopencv-contrib-dev      # OpenCV 4.6 core/imgproc/calib3d + contrib aruco
@@ -17,11 +31,18 @@ PACKAGES=(
   cyclonedds-dev cyclonedds-tools          # ROS 2-compatible DDS output (C API + idlc)
   libcivetweb-dev                          # HTTP + WebSocket server for the web view
   libsodium-dev                            # HMAC-SHA256 + CSPRNG for the subscriptions output
-  chromium                                 # headless browser for the web view's tests
-  libgtest-dev libgmock-dev libbenchmark-dev
-  clang-14 libclang-rt-14-dev               # the sanitizer build and libFuzzer (fuzz/)
-  python3
+  help2man                                 # the man pages of ipsd and ips, from their --help
+  file                                     # cpack: finds the ELF files to strip and to run dpkg-shlibdeps on
+  python3                                  # tools/ipsd_client.py
 )
+# What the test suite adds (tools/test.sh).
+TEST_PACKAGES=(
+  libgtest-dev libgmock-dev libbenchmark-dev
+  chromium                                 # headless browser for the web view's tests
+  clang-14 libclang-rt-14-dev               # the sanitizer build and libFuzzer (fuzz/)
+  lintian                                  # tests/package: the .deb checked against Debian policy
+)
+if [ "$layer" = test ]; then PACKAGES+=("${TEST_PACKAGES[@]}"); fi
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -37,8 +58,10 @@ if [ "${#missing[@]}" -gt 0 ]; then
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 else
-  echo "setup: all packages present"
+  echo "setup: all packages present ($layer layer)"
 fi
+
+if [ "$layer" != test ]; then exit 0; fi
 
 # The MAVLink output's tests decode frames with an independent implementation (node-mavlink),
 # pinned by tests/output/mavlink_decoder/package-lock.json. Debian's nodejs/npm only where no

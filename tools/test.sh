@@ -10,7 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-bash tools/setup.sh
+bash tools/setup.sh --test
 
 jobs=$(nproc)
 configs=${IPS_TEST_CONFIGS:-"release asan"}
