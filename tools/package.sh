@@ -1,19 +1,35 @@
 #!/usr/bin/env bash
-# Builds the Debian package of ipsd from the release build:
-#   bash tools/package.sh            -> build/release/package/ipsd_<version>_<arch>.deb
-# Install it with `sudo apt install ./build/release/package/ipsd_*.deb` (README "Install").
+# Builds the Debian package of ipsd from a release build:
+#   bash tools/package.sh     -> build/package/ipsd_<version>_<arch>.deb
+#                                (and its debug symbols, build/package/ipsd-dbgsym_<version>_<arch>.ddeb)
+# Install it with `sudo apt install ./build/package/ipsd_*.deb` (README "Install").
+# Installs only what building needs (tools/setup.sh, not the test layer). The build: IPS_BUILD_DIR
+# if set; else build/release when it is configured (tools/test.sh's); else build/programs, the
+# Release build without tests and benchmarks that tools/demo.sh makes too.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 bash tools/setup.sh
-build=${IPS_BUILD_DIR:-build/release}
+if [ -n "${IPS_BUILD_DIR:-}" ]; then
+  build=$IPS_BUILD_DIR
+elif [ -f build/release/CMakeCache.txt ]; then
+  build=build/release
+else
+  build=build/programs
+fi
 if [ ! -f "$build/CMakeCache.txt" ]; then
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF >/dev/null
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF \
+        -DIPS_BUILD_TESTS=OFF -DIPS_BUILD_BENCHMARKS=OFF >/dev/null
+else
+  # Configured before help2man was installed: look for it again (the man pages need it).
+  cmake "$build" >/dev/null
 fi
 if grep -q '^IPS_SANITIZE:BOOL=ON' "$build/CMakeCache.txt"; then
   echo "package.sh: $build is a sanitizer build; package a release build (IPS_BUILD_DIR=build/release)" >&2
   exit 2
 fi
-cmake --build "$build" -j "$(nproc)" --target ips_tool ipsd
-(cd "$build" && cpack -G DEB -B package)
-ls -1 "$build"/package/*.deb
+cmake --build "$build" -j "$(nproc)" --target ips_tool ipsd ips_examples ips_man ips_changelog
+out=$PWD/build/package
+rm -f "$out"/ipsd_*.deb "$out"/ipsd-dbgsym_*.ddeb
+(cd "$build" && cpack -G DEB -B "$out")
+ls -1 "$out"/ipsd_*.deb "$out"/ipsd-dbgsym_*.ddeb
