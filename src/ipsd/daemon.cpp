@@ -15,6 +15,7 @@
 #include "ips/clock.h"
 #include "ips/error.h"
 #include "ips/source_factory.h"
+#include "signals.h"
 #include "web_link.h"
 
 namespace ipsd {
@@ -130,6 +131,9 @@ void Daemon::reload() {
       if (socket) status_socket_ = std::move(socket);
     }
     if (config.web != old->config.web) spdlog::warn("reload: web.* changes take effect when ipsd restarts");
+    if (config.outputs != old->config.outputs)
+      spdlog::warn("reload: outputs changed: every output is opened anew (sequence numbers restart, subscribers are "
+                   "dropped until they renew their lease)");
     if (config.cameras == old->config.cameras) {
       runtime_.set(fresh);  // the threads pick it up at their next frame
       if (web_) web_->set_layout(web_layout(*fresh));
@@ -204,16 +208,9 @@ nlohmann::json Daemon::status_document() {
 }
 
 int Daemon::run() {
-  // Signals are taken synchronously through a signalfd on this thread: block them before any
-  // thread starts so that every thread inherits the mask.
-  sigset_t mask;
-  sigemptyset(&mask);
-  sigaddset(&mask, SIGTERM);
-  sigaddset(&mask, SIGINT);
-  sigaddset(&mask, SIGHUP);
-  if (pthread_sigmask(SIG_BLOCK, &mask, nullptr) != 0) throw std::runtime_error("pthread_sigmask failed");
-  const int sfd = signalfd(-1, &mask, SFD_CLOEXEC | SFD_NONBLOCK);
-  if (sfd < 0) throw std::runtime_error(std::string("signalfd: ") + std::strerror(errno));
+  // SIGTERM/SIGINT/SIGHUP arrive here through a signalfd; main() blocked them before the
+  // constructor started any thread (outputs start theirs: DDS, subscriptions), see signals.h.
+  const int sfd = open_daemon_signalfd();
 
   started_ns_ = ips::monotonic_ns();
   synthetic_epoch_ns_ = started_ns_;

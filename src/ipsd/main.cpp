@@ -12,6 +12,7 @@
 #include "daemon.h"
 #include "ips/config.h"
 #include "ips/error.h"
+#include "signals.h"
 
 int main(int argc, char** argv) {
   // The camera threads allocate and free image-sized buffers on every frame (OpenCV's contour
@@ -47,6 +48,10 @@ int main(int argc, char** argv) {
   // Under systemd the journal adds time and unit; on a terminal show the time ourselves.
   spdlog::set_pattern(std::getenv("JOURNAL_STREAM") ? "%^%l%$: %v" : "[%H:%M:%S.%e] %^%l%$: %v");
   try {
+    // Before any thread exists (the Daemon's constructor starts the outputs' threads: DDS,
+    // subscriptions), so that every thread inherits the mask and SIGTERM/SIGHUP reach only the
+    // daemon's signalfd (signals.h). --check starts no thread and stays interruptible.
+    if (!check) ipsd::block_daemon_signals();
     ipsd::Daemon daemon(config, check ? ipsd::Daemon::Mode::kCheck : ipsd::Daemon::Mode::kRun);
     if (!log_level.empty()) spdlog::set_level(spdlog::level::from_str(log_level));
     if (check) {
