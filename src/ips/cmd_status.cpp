@@ -1,6 +1,8 @@
 // `ips status`: ask a running ipsd for its status over its unix socket (status.socket in the
 // daemon's configuration) and print it, per camera.
+#include <grp.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -21,6 +23,18 @@ struct StatusOptions {
   bool json = false;
 };
 
+/// What to do about a failed connect, for the error message.
+std::string why_not_connected(const std::string& path, int err) {
+  if (err != EACCES) return " (is ipsd running, with status.socket set?)";
+  // The daemon makes its socket 0660 for its group (ipsd under systemd): name that group.
+  std::string name = "ipsd";
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0)
+    if (const struct group* g = ::getgrgid(st.st_gid)) name = g->gr_name;
+  return " (the status socket is for its owner and group " + name + ": add yourself with `sudo usermod -aG " + name +
+         " $USER` and log in again, or run ips status with sudo)";
+}
+
 std::string fetch(const std::string& path) {
   sockaddr_un addr{};
   if (path.size() >= sizeof addr.sun_path) throw ips::InputError("--socket: path too long: " + path);
@@ -33,7 +47,7 @@ std::string fetch(const std::string& path) {
   if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
     const int err = errno;
     ::close(fd);
-    throw std::runtime_error("cannot connect to " + path + ": " + std::strerror(err) + " (is ipsd running, with status.socket set?)");
+    throw std::runtime_error("cannot connect to " + path + ": " + std::strerror(err) + why_not_connected(path, err));
   }
   std::string text;
   char buf[4096];

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -9,6 +10,7 @@
 #include <cstring>
 
 #include <spdlog/fmt/fmt.h>
+#include <spdlog/spdlog.h>
 
 #include "ips/error.h"
 
@@ -146,6 +148,11 @@ StatusSocket::StatusSocket(const std::string& path) : path_(path) {
     fd_ = -1;
     throw ips::InputError("status.socket: cannot listen on " + path + ": " + std::strerror(err));
   }
+  // Readable by the daemon's group whatever the umask (the unit's UMask=0027 would leave the
+  // group without the write permission connect() needs): a lab member in group ipsd runs
+  // `ips status` without sudo. Others stay out (the status names files and addresses).
+  if (::chmod(path.c_str(), kSocketMode) != 0)
+    spdlog::warn("status.socket: cannot chmod {} to {:o}: {}", path, kSocketMode, std::strerror(errno));
 }
 
 StatusSocket::~StatusSocket() {

@@ -56,6 +56,8 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
 /// A listening unix stream socket: every client that connects gets one JSON document and EOF.
 class StatusSocket {
  public:
+  /// The socket file's mode: owner and group may connect (members of group ipsd under systemd).
+  static constexpr unsigned kSocketMode = 0660;
   StatusSocket() = default;
   /// Creates `path` (replacing a stale socket file). Throws ips::InputError naming status.socket.
   explicit StatusSocket(const std::string& path);
