@@ -81,7 +81,8 @@
  *    72    4 f32      spread, metres: largest distance of a contributing view's body position
  *                     from the fused one
  *    76    4 i32      dt_us: this body's time minus the header's capture time, microseconds
- *                     (<= 0). Per body name, header time + dt_us never decreases.
+ *                     (<= 0; 0 per camera frame, the age of the body's newest pose with a fixed
+ *                     output rate). Per body name, header time + dt_us never decreases.
  *    80    2 u16      body_flags: bit 0 = IPS_WIRE_BODY_HAS_YAW (yaw and quaternion are
  *                     measured; 0 = position only, e.g. a cube side seen with no face known);
  *                     bit 1 = IPS_WIRE_BODY_HAS_VELOCITY (vx, vy, vz measured); bit 2 =
