@@ -1,7 +1,7 @@
 // The web view: one embedded HTTP server (CivetWeb) serving the page (assets embedded in the
 // binary), /status.json, /layout.json, a Server-Sent-Events stream of fused positions
 // (/events) and each camera's latest frame with its detections (/camera/<name>.jpg|.json).
-// Read-only. Nothing here blocks the pipeline: positions are copied into a bounded inbox and
+// Read-only (GET and HEAD). Nothing here blocks the pipeline: positions are copied into a bounded inbox and
 // sent by the server's own fan-out thread into bounded per-client queues (overflow drops the
 // oldest message, counted); camera frames are handed over by the camera thread only when a
 // page asked for one (FrameTap::wanted) and are downscaled, drawn and encoded on the HTTP
@@ -59,11 +59,13 @@ class FrameTap {
   std::uint64_t generation_ = 0;
 };
 
-/// Where a request goes (pure function of method and path; tested on its own).
+/// Where a request goes (pure function of method and path; tested on its own). GET and HEAD
+/// are served; any other method is kBadMethod.
 struct Route {
   enum class Kind { kPage, kAsset, kStatus, kLayout, kEvents, kCameraJpeg, kCameraJson, kNotFound, kBadMethod, kBadRequest };
   Kind kind = Kind::kNotFound;
-  std::string name;  ///< asset file name or camera name
+  std::string name;   ///< asset file name or camera name
+  bool head = false;  ///< HEAD: the GET answer's status and headers, no body
 };
 Route route_request(const std::string& method, const std::string& path);
 
@@ -97,12 +99,13 @@ CameraView render_camera_view(const std::string& camera, const FrameSnapshot& sn
 struct WebCounters {
   std::uint64_t clients = 0;          ///< live streams now
   std::uint64_t clients_total = 0;    ///< streams opened since start
-  std::uint64_t refused = 0;          ///< streams refused (max_clients reached)
+  std::uint64_t refused = 0;          ///< streams refused (max_clients or max_per_address reached)
   std::uint64_t messages = 0;         ///< stream messages sent
   std::uint64_t dropped = 0;          ///< stream messages dropped (a client's queue was full)
   std::uint64_t inbox_dropped = 0;    ///< fused updates dropped before the fan-out thread saw them
   std::uint64_t frames = 0;           ///< camera view images encoded
-  std::uint64_t bad_requests = 0;     ///< 4xx answers
+  std::uint64_t bad_requests = 0;     ///< 4xx answers (and our 503s)
+  std::uint64_t limited = 0;          ///< requests refused with 503 because their address had max_per_address
 };
 
 class WebServer {

@@ -274,6 +274,15 @@ static void parse_web(const YAML::Node& node, const std::string& file, WebConfig
   r.get("max_clients", w.max_clients);
   if (w.max_clients < 1 || w.max_clients > 256)
     r.fail(r.raw()["max_clients"], "web.max_clients", "must be 1..256");
+  r.get("max_connections", w.max_connections);
+  if (w.max_connections < 16 || w.max_connections > 1024)
+    r.fail(r.raw()["max_connections"], "web.max_connections", "must be 16..1024");
+  r.get("max_per_address", w.max_per_address);
+  if (w.max_per_address < 1 || w.max_per_address > 256)
+    r.fail(r.raw()["max_per_address"], "web.max_per_address", "must be 1..256");
+  r.get_number("request_timeout", w.request_timeout_s, 0.0, true);
+  if (w.request_timeout_s < 0.2 || w.request_timeout_s > 60)
+    r.fail(r.raw()["request_timeout"], "web.request_timeout", "must be 0.2..60 (seconds)");
   if (r.has("floor")) {
     const YAML::Node f = r.node("floor");
     bool ok = f.IsSequence() && f.size() == 4;

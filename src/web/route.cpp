@@ -36,10 +36,13 @@ Route route_request(const std::string& method, const std::string& path) {
       return r;
     }
   }
-  if (method != "GET") {  // read-only: no POST/PUT/DELETE; HEAD is not needed by the page
+  // Read-only: no POST/PUT/DELETE. HEAD (monitoring tools) is routed like GET; the server
+  // then sends the same status and headers without the body.
+  if (method != "GET" && method != "HEAD") {
     r.kind = Route::Kind::kBadMethod;
     return r;
   }
+  r.head = method == "HEAD";
   const std::string_view p(path);
   if (p == "/" || p == "/index.html") {
     r.kind = Route::Kind::kPage;

@@ -1,9 +1,13 @@
 // CivetWeb glue: one catch-all request handler routes with route_request(); CivetWeb itself
-// answers requests it cannot parse (400) and bounds the threads (num_threads = max_clients +
-// 8, so that streams never starve the page, the JSON and the camera images).
+// answers requests it cannot parse (400). CivetWeb (1.15) holds one worker thread per
+// connection from accept until the request is answered, so the pool is sized to keep the page
+// reachable: num_threads = max_connections + max_clients (live streams never take the threads
+// of other requests), an idle socket is closed after request_timeout (no keep-alive), and one
+// client address has at most max_per_address requests and streams in progress (more: 503).
 #include <civetweb.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <mutex>
 #include <system_error>
@@ -35,12 +39,14 @@ struct CameraEntry {
   std::shared_ptr<ViewCache> cache;
 };
 
-int send(mg_connection* conn, int status, const char* mime, const std::string& body, const char* extra = "") {
+// `head`: a HEAD request gets the same status line and headers (Content-Length of the body a
+// GET would get) and no body.
+int send(mg_connection* conn, bool head, int status, const char* mime, const std::string& body, const char* extra = "") {
   mg_printf(conn,
             "HTTP/1.1 %d %s\r\nContent-Type: %s\r\nContent-Length: %zu\r\nCache-Control: no-store\r\n"
             "X-Content-Type-Options: nosniff\r\n%sConnection: close\r\n\r\n",
             status, mg_get_response_code_text(conn, status), mime, body.size(), extra);
-  mg_write(conn, body.data(), body.size());
+  if (!head) mg_write(conn, body.data(), body.size());
   return status;
 }
 }  // namespace
@@ -53,14 +59,29 @@ struct WebServer::Impl {
   std::mutex mutex;  // layout, status, cameras
   std::string layout_text = "{}", status_text = "{}";
   std::map<std::string, CameraEntry> cameras;
-  std::atomic<std::uint64_t> frames{0}, bad_requests{0}, messages{0};
+  std::atomic<std::uint64_t> frames{0}, bad_requests{0}, messages{0}, limited{0};
   std::string start_error;
+  std::mutex address_mutex;
+  std::map<std::string, int> in_progress;  // client address -> requests being served (streams included)
+
+  /// Takes one of the address's max_per_address slots (false: none left).
+  bool enter(const std::string& address) {
+    std::lock_guard lock(address_mutex);
+    int& n = in_progress[address];
+    if (n >= config.max_per_address) return false;
+    ++n;
+    return true;
+  }
+  void leave(const std::string& address) {
+    std::lock_guard lock(address_mutex);
+    if (--in_progress[address] <= 0) in_progress.erase(address);
+  }
 
   Impl(const WebConfig& c, std::string dict) : config(c), dictionary(std::move(dict)), hub(c.update_rate_hz) {}
 
-  int error(mg_connection* conn, int status, const std::string& what) {
+  int error(mg_connection* conn, bool head, int status, const std::string& what, const char* extra = "") {
     ++bad_requests;
-    return send(conn, status, "text/plain; charset=utf-8", what + "\n");
+    return send(conn, head, status, "text/plain; charset=utf-8", what + "\n", extra);
   }
 
   int handle(mg_connection* conn) {
@@ -69,6 +90,7 @@ struct WebServer::Impl {
     const std::string path = ri->local_uri ? ri->local_uri : "";
     const std::string query = ri->query_string ? ri->query_string : "";
     Route r = route_request(method, path);
+    const bool head = r.head;
     // Read-only: a request with a body (or a body length that is no number) is malformed here.
     const char* length = mg_get_header(conn, "Content-Length");
     if (r.kind != Route::Kind::kBadMethod && ((length && std::strcmp(length, "0") != 0) ||
@@ -76,16 +98,16 @@ struct WebServer::Impl {
       r.kind = Route::Kind::kBadRequest;
     switch (r.kind) {
       case Route::Kind::kBadRequest:
-        return error(conn, 400, "bad request (path, or a body on a GET)");
+        return error(conn, head, 400, "bad request (path, or a body on a GET)");
       case Route::Kind::kBadMethod:
-        return error(conn, 405, "read-only: only GET is served");
+        return error(conn, false, 405, "read-only: only GET and HEAD are served", "Allow: GET, HEAD\r\n");
       case Route::Kind::kNotFound:
-        return error(conn, 404, "no such page: " + path);
+        return error(conn, head, 404, "no such page: " + path);
       case Route::Kind::kPage:
       case Route::Kind::kAsset: {
         const Asset* a = find_asset(r.kind == Route::Kind::kPage ? "index.html" : r.name);
-        if (!a) return error(conn, 404, "no such asset: " + r.name);
-        return send(conn, 200, a->mime, std::string(reinterpret_cast<const char*>(a->data), a->size));
+        if (!a) return error(conn, head, 404, "no such asset: " + r.name);
+        return send(conn, head, 200, a->mime, std::string(reinterpret_cast<const char*>(a->data), a->size));
       }
       case Route::Kind::kStatus: {
         std::string body;
@@ -93,7 +115,7 @@ struct WebServer::Impl {
           std::lock_guard lock(mutex);
           body = status_text;
         }
-        return send(conn, 200, "application/json", body + "\n");
+        return send(conn, head, 200, "application/json", body + "\n");
       }
       case Route::Kind::kLayout: {
         std::string body;
@@ -101,23 +123,28 @@ struct WebServer::Impl {
           std::lock_guard lock(mutex);
           body = layout_text;
         }
-        return send(conn, 200, "application/json", body + "\n");
+        return send(conn, head, 200, "application/json", body + "\n");
       }
       case Route::Kind::kEvents:
-        return stream(conn);
+        return stream(conn, head);
       case Route::Kind::kCameraJpeg:
       case Route::Kind::kCameraJson:
         return camera(conn, r, query);
     }
-    return error(conn, 500, "unrouted");
+    return error(conn, head, 500, "unrouted");
   }
 
-  int stream(mg_connection* conn) {
+  int stream(mg_connection* conn, bool head) {
+    static const char* kHeader =
+        "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n"
+        "Connection: close\r\n\r\n";
+    if (head) {  // the headers a stream starts with; no stream (and no slot taken)
+      mg_printf(conn, "%s", kHeader);
+      return 200;
+    }
     auto client = hub.subscribe(static_cast<std::size_t>(config.max_clients));
-    if (!client) return error(conn, 503, "too many live streams (web.max_clients)");
-    mg_printf(conn,
-              "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n"
-              "Connection: close\r\n\r\nretry: 1000\n\n");
+    if (!client) return error(conn, false, 503, "too many live streams (web.max_clients)");
+    mg_printf(conn, "%sretry: 1000\n\n", kHeader);
     // This HTTP thread is the client's writer: a slow reader blocks only here (CivetWeb's
     // request_timeout_ms bounds a write), its queue overflows, the hub counts the drops.
     static const std::string keepalive = ": keep-alive\n\n";
@@ -137,7 +164,7 @@ struct WebServer::Impl {
     {
       std::lock_guard lock(mutex);
       const auto it = cameras.find(r.name);
-      if (it == cameras.end()) return error(conn, 404, "no camera named '" + r.name + "'");
+      if (it == cameras.end()) return error(conn, r.head, 404, "no camera named '" + r.name + "'");
       entry = it->second;
     }
     std::shared_ptr<const CameraView> view;
@@ -159,10 +186,10 @@ struct WebServer::Impl {
       }
       view = entry.cache->view;
     }
-    if (!view) return error(conn, 503, "camera '" + r.name + "' delivers no frames");
-    if (r.kind == Route::Kind::kCameraJson) return send(conn, 200, "application/json", view->info + "\n");
+    if (!view) return error(conn, r.head, 503, "camera '" + r.name + "' delivers no frames");
+    if (r.kind == Route::Kind::kCameraJson) return send(conn, r.head, 200, "application/json", view->info + "\n");
     const bool plain = query.find("overlay=0") != std::string::npos;
-    return send(conn, 200, "image/jpeg", plain ? view->plain_jpeg : view->jpeg);
+    return send(conn, r.head, 200, "image/jpeg", plain ? view->plain_jpeg : view->jpeg);
   }
 };
 
@@ -172,7 +199,7 @@ int handle_on_this_thread(mg_connection* conn, WebServer::Impl* impl) {
     return impl->handle(conn);
   } catch (const std::exception& e) {
     spdlog::warn("web: {}", e.what());
-    return send(conn, 500, "text/plain", std::string("internal error: ") + e.what() + "\n");
+    return send(conn, false, 500, "text/plain", std::string("internal error: ") + e.what() + "\n");
   }
 }
 
@@ -182,13 +209,27 @@ int handle_on_this_thread(mg_connection* conn, WebServer::Impl* impl) {
 // default stack while CivetWeb's thread waits; a stream's thread lives as long as the stream.
 int handle_request(mg_connection* conn, void* data) {
   auto* impl = static_cast<WebServer::Impl*>(data);
+  const mg_request_info* ri = mg_get_request_info(conn);
+  const std::string address = ri->remote_addr;
+  if (!impl->enter(address)) {  // this address has max_per_address requests or streams in progress
+    ++impl->limited;
+    if (ri->local_uri && std::strcmp(ri->local_uri, "/events") == 0) ++impl->hub.refused;
+    const bool head = ri->request_method && std::strcmp(ri->request_method, "HEAD") == 0;
+    return impl->error(conn, head, 503, "too many requests in progress from " + address + " (web.max_per_address)",
+                       "Retry-After: 1\r\n");
+  }
+  struct Leave {
+    WebServer::Impl* impl;
+    const std::string& address;
+    ~Leave() { impl->leave(address); }
+  } leave{impl, address};
   int status = 0;
   try {
     std::thread worker([&] { status = handle_on_this_thread(conn, impl); });
     worker.join();
   } catch (const std::system_error& e) {  // no thread: answer on this one, briefly
     spdlog::warn("web: cannot start a request thread: {}", e.what());
-    return send(conn, 503, "text/plain", "busy\n");
+    return send(conn, false, 503, "text/plain", "busy\n");
   }
   return status;
 }
@@ -208,9 +249,16 @@ WebServer::WebServer(const WebConfig& config, const std::string& dictionary)
     : impl_(std::make_unique<Impl>(config, dictionary)) {
   std::call_once(library_once, [] { mg_init_library(0); });
   const std::string listen = config.host + ":" + std::to_string(config.port);
-  const std::string threads = std::to_string(config.max_clients + 8);
+  // Every stream holds a thread for its lifetime; the other connections get max_connections
+  // threads of their own, each held from accept until answered (an idle socket:
+  // request_timeout, also the limit on one blocked write). The queue and backlog let a burst
+  // of connections wait for a thread rather than being refused by the kernel.
+  const std::string threads = std::to_string(config.max_connections + config.max_clients);
+  const std::string timeout_ms = std::to_string(std::lround(config.request_timeout_s * 1000));
+  const std::string queue = std::to_string(config.max_connections);
   const char* options[] = {"listening_ports", listen.c_str(), "num_threads", threads.c_str(),
-                           "request_timeout_ms", "10000", "enable_keep_alive", "no",
+                           "request_timeout_ms", timeout_ms.c_str(), "enable_keep_alive", "no",
+                           "connection_queue", queue.c_str(), "listen_backlog", "512",
                            "enable_directory_listing", "no", nullptr};
   mg_callbacks callbacks{};
   callbacks.log_message = log_message;
@@ -273,6 +321,7 @@ WebCounters WebServer::counters() const {
   c.inbox_dropped = impl_->hub.inbox_dropped;
   c.frames = impl_->frames;
   c.bad_requests = impl_->bad_requests;
+  c.limited = impl_->limited;
   return c;
 }
 

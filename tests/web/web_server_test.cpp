@@ -3,6 +3,7 @@
 // where the detections are, the stream's content, its bounded per-client queues and abrupt
 // disconnects.
 #include <atomic>
+#include <cctype>
 #include <cmath>
 #include <thread>
 
@@ -391,6 +392,151 @@ TEST_F(WebServerTest, StreamsBodiesWithTheirPoseMarkersAndCamerasNeverBackInTime
     moved = j["bodies"].size() == 1u && j["bodies"][0]["x"] == 1.6;
   }
   EXPECT_TRUE(moved);
+}
+
+TEST(WebRoute, HeadIsRoutedLikeGetAndOtherMethodsAreRefused) {
+  using K = Route::Kind;
+  for (const std::string path : {"/", "/status.json", "/layout.json", "/events", "/assets/app.js", "/camera/red.jpg",
+                                 "/camera/red.json", "/nope"}) {
+    const Route get = route_request("GET", path), head = route_request("HEAD", path);
+    EXPECT_EQ(head.kind, get.kind) << path;
+    EXPECT_EQ(head.name, get.name) << path;
+    EXPECT_TRUE(head.head) << path;
+    EXPECT_FALSE(get.head) << path;
+  }
+  for (const std::string m : {"PUT", "OPTIONS", "head", "TRACE"}) EXPECT_EQ(route_request(m, "/").kind, K::kBadMethod) << m;
+}
+
+TEST(WebConfig, ConnectionLimitsAndTimeoutHaveDefaultsAndRanges) {
+  const DaemonConfig d = parse_config(config_with("web: {listen: \"127.0.0.1:8081\"}\n"), "t.yaml");
+  EXPECT_EQ(d.web.max_connections, 128);
+  EXPECT_EQ(d.web.max_per_address, 8);
+  EXPECT_DOUBLE_EQ(d.web.request_timeout_s, 1.5);
+  const DaemonConfig c = parse_config(
+      config_with("web: {listen: \"127.0.0.1:8081\", max_connections: 300, max_per_address: 3, request_timeout: 2.5}\n"),
+      "t.yaml");
+  EXPECT_EQ(c.web.max_connections, 300);
+  EXPECT_EQ(c.web.max_per_address, 3);
+  EXPECT_DOUBLE_EQ(c.web.request_timeout_s, 2.5);
+  const std::pair<std::string, std::string> bad[] = {
+      {"max_connections: 8", "web.max_connections"}, {"max_connections: 5000", "web.max_connections"},
+      {"max_per_address: 0", "web.max_per_address"}, {"request_timeout: 0.05", "web.request_timeout"},
+      {"request_timeout: 600", "web.request_timeout"}, {"request_timeout: soon", "web.request_timeout"}};
+  for (const auto& [yaml, key] : bad) {
+    try {
+      parse_config(config_with("web: {listen: \"127.0.0.1:8081\", " + yaml + "}\n"), "t.yaml");
+      ADD_FAILURE() << "accepted: " << yaml;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+}
+
+// The value of header `name` in `headers` ("" if absent); names compared case-insensitively.
+std::string header(const std::string& headers, std::string name) {
+  const auto lower = [](std::string s) {
+    for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+  };
+  const std::string h = lower(headers);
+  const auto at = h.find("\r\n" + lower(name) + ":");
+  if (at == std::string::npos) return "";
+  const auto begin = headers.find_first_not_of(' ', at + 3 + name.size());
+  return headers.substr(begin, headers.find("\r\n", begin) - begin);
+}
+
+TEST_F(WebServerTest, HeadAnswersEveryGetRouteWithItsStatusAndHeadersAndNoBody) {
+  ASSERT_EQ(http_get(port_, "/camera/red.jpg").status, 200);  // so that red.json describes a frame
+  for (const std::string path : {"/", "/index.html", "/status.json", "/layout.json", "/assets/app.js",
+                                 "/assets/style.css", "/camera/red.json", "/nope", "/camera/green.jpg"}) {
+    const auto get = http_get(port_, path);
+    // Read until the server closes: a body sent after the headers would show up here.
+    const auto head = raw_request(port_, "HEAD " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n");
+    EXPECT_EQ(head.status, get.status) << path;
+    EXPECT_EQ(header(head.headers, "Content-Type"), header(get.headers, "Content-Type")) << path;
+    EXPECT_FALSE(header(get.headers, "Content-Type").empty()) << path;
+    EXPECT_EQ(header(head.headers, "Content-Length"), std::to_string(get.body.size())) << path;
+    EXPECT_EQ(head.body, "") << path;
+  }
+  const auto status = raw_request(port_, "HEAD /status.json HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(status.status, 200);
+  EXPECT_EQ(header(status.headers, "Content-Type"), "application/json");
+  // The stream: its headers, then the connection ends (no events, no stream slot taken).
+  const auto events = raw_request(port_, "HEAD /events HTTP/1.1\r\nHost: x\r\n\r\n", 3000);
+  EXPECT_EQ(events.status, 200);
+  EXPECT_EQ(header(events.headers, "Content-Type"), "text/event-stream");
+  EXPECT_EQ(events.body, "");
+  EXPECT_EQ(server_->counters().clients_total, 0u);
+  const auto post = raw_request(port_, "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n");
+  EXPECT_EQ(post.status, 405);
+  EXPECT_EQ(header(post.headers, "Allow"), "GET, HEAD");
+}
+
+// The lock-out of issue 24: idle TCP connections (accepted, no request) used to hold every
+// HTTP thread for 10 s. Now 100 of them, kept open (the server closes an idle one after
+// web.request_timeout; it is reopened at once, as a flooding host would), never delay
+// /status.json past 1 s.
+TEST_F(WebServerTest, AHundredIdleConnectionsNeverDelayStatusJsonPastOneSecond) {
+  constexpr int kIdle = 100;
+  std::vector<std::unique_ptr<test::TcpClient>> idle;
+  for (int i = 0; i < kIdle; ++i) {
+    idle.push_back(std::make_unique<test::TcpClient>(port_));
+    ASSERT_TRUE(idle.back()->ok()) << i;
+  }
+  const std::int64_t t0 = monotonic_ns();
+  int checks = 0, reopened = 0;
+  double slowest = 0;
+  while (monotonic_ns() - t0 < 4'000'000'000) {
+    const std::int64_t start = monotonic_ns();
+    const auto r = http_get(port_, "/status.json", 3000);
+    const double s = 1e-9 * static_cast<double>(monotonic_ns() - start);
+    slowest = std::max(slowest, s);
+    EXPECT_EQ(r.status, 200) << "check " << checks;
+    EXPECT_LT(s, 1.0) << "check " << checks << " at " << 1e-9 * static_cast<double>(start - t0) << " s";
+    ++checks;
+    // Keep the flood at 100: reopen every socket the server closed.
+    for (auto& c : idle) {
+      std::string ignored;
+      if (!c->receive(ignored, 0)) {
+        c = std::make_unique<test::TcpClient>(port_);
+        ++reopened;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  idle.clear();  // closes them
+  EXPECT_GE(checks, 10);
+  // The server closed the idle sockets after request_timeout (1.5 s): within the 4 s, each at
+  // least once.
+  EXPECT_GE(reopened, kIdle) << "slowest status.json " << slowest << " s";
+  EXPECT_EQ(http_get(port_, "/status.json").status, 200);
+}
+
+TEST(WebServer, OneAddressGetsAtMostMaxPerAddressRequestsAndStreams) {
+  WebConfig c;
+  c.host = "127.0.0.1";
+  c.port = free_tcp_port();
+  c.listen = "127.0.0.1:" + std::to_string(c.port);
+  c.max_per_address = 2;
+  WebServer server(c, "DICT_4X4_100");
+  server.set_status(R"({"type": "ipsd.status"})");
+  test::EventStream a(server.port()), b(server.port());
+  EXPECT_EQ(a.next(3000).first, "status");
+  EXPECT_EQ(b.next(3000).first, "status");
+  const auto refused = http_get(server.port(), "/status.json");
+  EXPECT_EQ(refused.status, 503);
+  EXPECT_NE(refused.body.find("web.max_per_address"), std::string::npos) << refused.body;
+  EXPECT_EQ(http_get(server.port(), "/events").status, 503);
+  EXPECT_GE(server.counters().limited, 2u);
+  EXPECT_GE(server.counters().refused, 1u);
+  // A closed stream gives its slot back (noticed at its next write: the keep-alive, <= 1 s).
+  a.socket().reset();
+  int status = 0;
+  for (int i = 0; i < 30 && status != 200; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    status = http_get(server.port(), "/status.json").status;
+  }
+  EXPECT_EQ(status, 200);
 }
 
 TEST(WebServer, ABusyPortIsAnErrorNamingWebListen) {
