@@ -86,8 +86,9 @@ std::vector<Eigen::Vector2d> camera_footprint(const CameraModel& intrinsics, con
                                               double height = 0.0, double max_range = 6.0);
 
 /// The camera view image: `snapshot` downscaled to at most `width` pixels wide, with the
-/// detections' outlines and ids (green) and OpenCV's rejected candidate squares (red,
-/// searched on the downscaled image) drawn; `info` gets the same geometry in JPEG pixels.
+/// detections' outlines and ids (green) drawn; `info` gets their geometry in JPEG pixels and
+/// OpenCV's rejected candidate squares (searched on the downscaled image; not drawn: the page
+/// draws them when asked).
 struct CameraView {
   std::string jpeg;        ///< with overlay
   std::string plain_jpeg;  ///< the same downscaled frame without overlay

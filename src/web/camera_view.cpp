@@ -1,7 +1,9 @@
 // The camera view image, made on the web server's thread from a snapshot the camera thread
-// handed over: downscale, draw the daemon's detections and OpenCV's rejected candidates,
-// encode. The daemon's detector keeps no rejects, so the candidates are searched here, once
-// per served image, on the downscaled frame (a few ms, off the camera threads).
+// handed over: downscale, draw the daemon's detections, encode. OpenCV's rejected candidates
+// go into the JSON only and the page draws them when asked (drawn into every image, the
+// squares around correctly detected markers alarmed new users). The daemon's detector keeps
+// no rejects, so the candidates are searched here, once per served image, on the downscaled
+// frame (a few ms, off the camera threads).
 #include <cmath>
 
 #include <nlohmann/json.hpp>
@@ -16,7 +18,6 @@ namespace ips {
 
 namespace {
 const cv::Scalar kDetected(0, 255, 0);  // BGR green: the page's legend says so
-const cv::Scalar kRejected(0, 0, 255);  // red
 
 std::string encode(const cv::Mat& image) {
   std::vector<unsigned char> bytes;
@@ -55,13 +56,8 @@ CameraView render_camera_view(const std::string& camera, const FrameSnapshot& sn
   info["detections"] = nlohmann::json::array();
   info["rejected"] = nlohmann::json::array();
   for (const auto& r : rejected) {
-    std::vector<cv::Point> poly;
     nlohmann::json corners = nlohmann::json::array();
-    for (const auto& p : r) {
-      poly.emplace_back(cvRound(p.x), cvRound(p.y));
-      corners.push_back({p.x, p.y});
-    }
-    cv::polylines(color, poly, true, kRejected, 1, cv::LINE_AA);
+    for (const auto& p : r) corners.push_back({p.x, p.y});
     info["rejected"].push_back(corners);
   }
   const int thickness = 2;  // visible on a downscaled frame, survives JPEG's colour subsampling

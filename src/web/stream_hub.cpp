@@ -120,9 +120,11 @@ Message StreamHub::markers_message(std::int64_t now) const {
   auto& list = j["markers"] = nlohmann::json::array();
   for (const auto& [id, e] : table_) {
     const MarkerRecord& m = e.record;
-    list.push_back({{"id", id}, {"x", m.x}, {"y", m.y}, {"z", m.z}, {"yaw", m.yaw}, {"cameras", m.camera_mask},
-                    {"quality", m.quality}, {"spread", m.spread}, {"vx", m.vx}, {"vy", m.vy},
-                    {"t_mono_ns", e.t_mono_ns}, {"age", age(e.t_mono_ns)}});
+    nlohmann::json o{{"id", id}, {"x", m.x}, {"y", m.y}, {"z", m.z}, {"yaw", m.yaw}, {"cameras", m.camera_mask},
+                     {"quality", m.quality}, {"spread", m.spread}, {"t_mono_ns", e.t_mono_ns},
+                     {"age", age(e.t_mono_ns)}};
+    if (e.has_velocity) o.update({{"vx", m.vx}, {"vy", m.vy}});  // absent: not measured (as for bodies)
+    list.push_back(std::move(o));
   }
   // Bodies (README "bodies"): a position-only body (has_yaw false) has no meaningful yaw or q.
   auto& bodies = j["bodies"] = nlohmann::json::array();
@@ -144,7 +146,7 @@ void StreamHub::merge(const Datagram& d) {
   // Fusion never goes back in time per marker or body; the tables keep it so.
   const auto keep_newest = [&d](auto& entry, const auto& record) {
     const std::int64_t t = d.capture_monotonic_ns + static_cast<std::int64_t>(record.dt_us) * 1000;
-    if (t >= entry.t_mono_ns) entry = {record, t};
+    if (t >= entry.t_mono_ns) entry = {record, t, d.has_velocity};
   };
   for (const MarkerRecord& m : d.markers) keep_newest(table_[m.id], m);
   for (const BodyRecord& b : d.bodies) keep_newest(bodies_[b.name], b);

@@ -63,6 +63,7 @@ class StreamHub {
   struct Entry {
     Record record;
     std::int64_t t_mono_ns = 0;  ///< the record's capture time
+    bool has_velocity = false;   ///< markers: the datagram's has_velocity (vx, vy measured)
   };
   void run();
   void merge(const Datagram& d);

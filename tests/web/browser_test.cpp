@@ -281,6 +281,114 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
   EXPECT_GE(std::stoi(img[0].at("data-loaded")), 1);
 }
 
+// The page in headless Chromium: `--dump-dom` of `query` into `out` (true when Chromium exited 0).
+bool dump_dom(const fs::path& dir, int port, const std::string& query, const fs::path& out) {
+  const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/" + query;
+  const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --user-data-dir=" + (dir / "chromium").string() +
+                          " --window-size=1400,900 --virtual-time-budget=4000 --dump-dom '" + url + "' > " +
+                          out.string() + " 2>" + (dir / "chromium.log").string();
+  return test::run({"/bin/sh", "-c", cmd}, dir / "run.log", std::chrono::seconds(45)) == 0;
+}
+
+// The Markers table's rows: marker id -> (data-field -> data-value).
+std::map<int, std::map<std::string, std::string>> marker_rows(const std::string& dom) {
+  std::map<int, std::map<std::string, std::string>> rows;
+  const std::regex row("<tr data-marker=\"([0-9]+)\"[^>]*>(.*?)</tr>");
+  for (auto it = std::sregex_iterator(dom.begin(), dom.end(), row); it != std::sregex_iterator(); ++it) {
+    const std::string cells = (*it)[2];
+    auto& r = rows[std::stoi((*it)[1])];
+    for (const auto& td : elements(cells, "td", "data-field="))
+      r[td.at("data-field")] = td.count("data-value") ? td.at("data-value") : "";
+  }
+  return rows;
+}
+
+TEST_F(WebBrowserTest, MarkersTableShowsTheStreamsNumbersAndRejectedCandidatesOnlyWhenAsked) {
+  ASSERT_TRUE(ready()) << test::read_file(log_);
+  const fs::path plain = *dir_ / "dom_plain.html", rejected = *dir_ / "dom_rejected.html";
+  ASSERT_TRUE(dump_dom(*dir_, port_, "?updates=12", plain)) << test::read_file(*dir_ / "chromium.log");
+  const std::string dom = test::read_file(plain);
+  ASSERT_NE(dom.find("data-done=\"1\""), std::string::npos) << dom.substr(0, 3000);
+  const auto stream = stream_positions(3);
+
+  // Markers table: one row per marker drawn on the map, with the same numbers (the same
+  // message), the parked ones where the simulator put them and where the stream says (1 mm:
+  // parked markers on still synthetic cameras).
+  const auto rows = marker_rows(dom);
+  const auto drawn = elements(dom, "g", "class=\"marker");
+  ASSERT_EQ(rows.size(), drawn.size()) << dom.substr(0, 3000);
+  for (const auto& g : drawn) {
+    const int id = std::stoi(g.at("data-id"));
+    ASSERT_TRUE(rows.count(id)) << id;
+    const auto& r = rows.at(id);
+    EXPECT_EQ(r.at("marker_id"), g.at("data-id"));
+    EXPECT_NEAR(std::stod(r.at("marker_x")), std::stod(g.at("data-x")), 1e-9) << id;
+    EXPECT_NEAR(std::stod(r.at("marker_y")), std::stod(g.at("data-y")), 1e-9) << id;
+    EXPECT_NEAR(std::stod(r.at("marker_yaw_deg")), std::stod(g.at("data-yaw")) * 180 / M_PI, 1e-6) << id;
+    EXPECT_EQ(r.at("marker_cameras"), g.at("data-cameras")) << id;
+    EXPECT_GE(std::stod(r.at("marker_age")), 0.0) << id;
+  }
+  int parked_rows = 0;
+  for (const auto& p : kParked) {
+    ASSERT_TRUE(rows.count(p.id)) << p.id;
+    const auto& r = rows.at(p.id);
+    ++parked_rows;
+    const double x = std::stod(r.at("marker_x")), y = std::stod(r.at("marker_y")), z = std::stod(r.at("marker_z"));
+    EXPECT_EQ(r.at("marker_name"), p.id == 1 ? "parked-a" : "parked-b");
+    EXPECT_NEAR(x, p.x, 0.03) << p.id;
+    EXPECT_NEAR(y, p.y, 0.03) << p.id;
+    EXPECT_NEAR(z, p.height, 0.03) << p.id;
+    EXPECT_NEAR(std::remainder(std::stod(r.at("marker_yaw_deg")) - p.yaw_deg, 360.0), 0, 3.0) << p.id;
+    ASSERT_TRUE(stream.count(p.id)) << p.id;
+    EXPECT_NEAR(x, stream.at(p.id)["x"].get<double>(), 1e-3) << p.id;
+    EXPECT_NEAR(y, stream.at(p.id)["y"].get<double>(), 1e-3) << p.id;
+    EXPECT_NEAR(z, stream.at(p.id)["z"].get<double>(), 1e-3) << p.id;
+    EXPECT_NEAR(std::remainder(std::stod(r.at("marker_yaw_deg")) - stream.at(p.id)["yaw"].get<double>() * 180 / M_PI, 360.0),
+                0, 0.06) << p.id;  // 1 mm at the marker's 10 cm half edge
+  }
+  EXPECT_EQ(parked_rows, 2);
+  EXPECT_FALSE(rows.count(7) || rows.count(8)) << "a body's marker listed as a marker";
+  // The map's scale: a 1 m grid, tick labels, the origin, a scale bar.
+  EXPECT_GE(elements(dom, "line", "class=\"grid").size(), 10u);
+  EXPECT_GE(elements(dom, "text", "class=\"tick tick-x").size(), 4u);
+  EXPECT_GE(elements(dom, "text", "class=\"tick tick-y").size(), 4u);
+  EXPECT_EQ(elements(dom, "line", "class=\"origin-x").size(), 1u);
+  EXPECT_EQ(elements(dom, "div", "data-metres=").size(), 1u);  // the scale bar
+
+  // Rejected candidates: not drawn by default; the box ticked (?rejected=1 ticks it and fires
+  // its change event, as a click does) draws every one of the frame's candidates.
+  const auto off = elements(dom, "svg", "id=\"camera-overlay\"");
+  ASSERT_EQ(off.size(), 1u);
+  EXPECT_EQ(off[0].at("data-show"), "0");
+  EXPECT_EQ(elements(dom, "polygon", "class=\"rejected\"").size(), 0u);
+  ASSERT_TRUE(dump_dom(*dir_, port_, "?updates=12&rejected=1", rejected)) << test::read_file(*dir_ / "chromium.log");
+  const std::string dom_on = test::read_file(rejected);
+  const auto on = elements(dom_on, "svg", "id=\"camera-overlay\"");
+  ASSERT_EQ(on.size(), 1u);
+  EXPECT_EQ(on[0].at("data-show"), "1");
+  const auto squares = elements(dom_on, "polygon", "class=\"rejected\"");
+  EXPECT_GE(squares.size(), 1u) << "no rejected candidate in the red camera's frame";
+  EXPECT_EQ(std::to_string(squares.size()), on[0].at("data-rejected"));
+  EXPECT_NE(dom_on.find(std::to_string(squares.size()) + " rejected candidates"), std::string::npos);
+}
+
+// The documented screenshot URL (README "web"): the page ends its stream and camera requests,
+// so headless Chromium's --screenshot finishes.
+TEST_F(WebBrowserTest, HeadlessChromiumFinishesAScreenshotOfTheDocumentedUrl) {
+  ASSERT_TRUE(ready()) << test::read_file(log_);
+  const fs::path png = *dir_ / "web_view.png";
+  const std::string url = "http://127.0.0.1:" + std::to_string(port_) + "/?updates=20";
+  const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --user-data-dir=" +
+                          (*dir_ / "chromium").string() + " --window-size=1400,900 --virtual-time-budget=6000" +
+                          " --screenshot=" + png.string() + " '" + url + "' 2>" + (*dir_ / "chromium.log").string();
+  ASSERT_EQ(test::run({"/bin/sh", "-c", cmd}, *dir_ / "run.log", std::chrono::seconds(60)), 0)
+      << "no screenshot within 60 s: " << test::read_file(*dir_ / "chromium.log");
+  const cv::Mat shot = cv::imread(png.string());
+  ASSERT_FALSE(shot.empty());
+  EXPECT_EQ(shot.cols, 1400);
+  EXPECT_EQ(shot.rows, 900);
+}
+
 TEST_F(WebBrowserTest, CameraViewOutlinesTheDaemonsDetectionsWhereOpenCvFindsTheMarkers) {
   ASSERT_TRUE(ready()) << test::read_file(log_);
   const auto jpg = test::http_get(port_, "/camera/white.jpg");

@@ -1,10 +1,13 @@
-// ipsd live view: the floor map (SVG in world metres, y up), the camera view and the health
-// tables, fed by /layout.json, the /events stream (Server-Sent Events) and /camera/<name>.jpg.
-// Plain JS, no framework, nothing from the internet; bodies are drawn by bodies.js. Every
-// marker element carries its world position and id as data attributes (data-id, data-x,
-// data-y, data-yaw) so that the tests read back what is drawn.
+// ipsd live view: the floor map (SVG in world metres, y up; 1 m grid, axes, scale bar, origin,
+// a tooltip with the numbers of the marker or body under the pointer), the Markers table, the
+// camera view and the health tables, fed by /layout.json, the /events stream (Server-Sent
+// Events) and /camera/<name>.jpg|json. Plain JS, no framework, nothing from the internet;
+// bodies are drawn by bodies.js. Every marker element carries its world position and id as
+// data attributes (data-id, data-x, data-y, data-z, data-yaw, data-speed, data-cameras,
+// data-age) so that the tests read back what is drawn.
 // ?updates=N: stop the stream after N marker updates and the camera view after 2 images
-// (a still page, for screenshots and the browser test).
+// (a still page that ends its connections: for screenshots, monitoring and the browser test).
+// ?rejected=1: the "show rejected candidates" box ticked at start. ?camera=NAME: that camera.
 'use strict';
 
 const SVG = 'http://www.w3.org/2000/svg';
@@ -32,6 +35,68 @@ let home = null;
 function setView(v) {
   view = v;
   $('map').setAttribute('viewBox', v.map((n) => n.toFixed(4)).join(' '));
+  drawScale();
+}
+
+// Metres per screen pixel of the current view ("meet": the larger of the two scales).
+function unitsPerPx() {
+  const r = $('map').getBoundingClientRect();
+  if (!r.width || !r.height) return 0.01;
+  return Math.max(view[2] / r.width, view[3] / r.height);
+}
+
+// The 1 m grid, the axes' tick labels along the left and bottom edges of what is visible, and
+// the scale bar: redrawn with every view change so that labels keep their size on screen.
+function drawScale() {
+  const u = unitsPerPx();
+  const grid = $('grid'), axes = $('axes');
+  grid.textContent = '';
+  axes.textContent = '';
+  // What the SVG shows ("meet" centres the viewBox in a panel of another aspect).
+  const r = $('map').getBoundingClientRect();
+  const w = (r.width || 1) * u, h = (r.height || 1) * u;
+  const sx0 = view[0] + view[2] / 2 - w / 2, sy0 = view[1] + view[3] / 2 - h / 2;
+  const x0 = sx0, x1 = sx0 + w, y0 = -(sy0 + h), y1 = -sy0;  // world metres
+  if (1 / u >= 6) {  // 1 m lines at least 6 px apart
+    for (let x = Math.ceil(x0); x <= x1; x++)
+      el('line', { class: x === 0 ? 'grid axis0' : 'grid', x1: x, y1: -y1, x2: x, y2: -y0 }, grid);
+    for (let y = Math.ceil(y0); y <= y1; y++)
+      el('line', { class: y === 0 ? 'grid axis0' : 'grid', x1: x0, y1: -y, x2: x1, y2: -y }, grid);
+  }
+  // Labels every 0.5, 1, 2, 5 or 10 m: at least 45 px apart.
+  const step = [0.5, 1, 2, 5, 10, 20, 50].find((s) => s / u >= 45) || 100;
+  const font = 11 * u, pad = 4 * u;
+  const label = (text, x, y, anchor, cls) => {
+    const t = el('text', { class: `tick ${cls}`, x, y, 'font-size': font, 'text-anchor': anchor, 'stroke-width': 3 * u },
+                 axes);
+    t.textContent = text;
+  };
+  const num = (v) => String(Math.round(v * 100) / 100);
+  for (let x = Math.ceil(x0 / step) * step; x <= x1 - 2 * font; x += step)
+    label(num(x), x, sy0 + h - pad, 'middle', 'tick-x');
+  for (let y = Math.ceil((y0 + 2 * font) / step) * step; y <= y1; y += step)
+    label(num(y), sx0 + pad, -y + font * 0.35, 'start', 'tick-y');
+  label('x m →', sx0 + w - pad, sy0 + h - pad, 'end', 'axis-name');
+  label('↑ y m', sx0 + pad, sy0 + font + pad, 'start', 'axis-name');
+  // Scale bar: 0.1 .. 10 m, 60..150 px long.
+  const len = [0.1, 0.2, 0.5, 1, 2, 5, 10].find((m) => m / u >= 60) || 20;
+  const bar = $('scale-bar');
+  bar.querySelector('.bar').style.width = `${(len / u).toFixed(1)}px`;
+  bar.querySelector('span').textContent = len < 1 ? `${len * 100} cm` : `${len} m`;
+  bar.dataset.metres = len;
+}
+
+// The world origin: a dot with the x (red) and y (green) axes, 0.4 m long.
+function drawOrigin() {
+  const g = $('origin');
+  g.textContent = '';
+  el('line', { class: 'origin-x', x1: 0, y1: 0, x2: 0.4, y2: 0 }, g);
+  el('line', { class: 'origin-y', x1: 0, y1: 0, x2: 0, y2: -0.4 }, g);
+  el('circle', { class: 'origin-dot', r: 0.035 }, g);
+  for (const [text, x, y] of [['x', 0.44, 0.04], ['y', 0.03, -0.44], ['0', -0.11, 0.12]]) {
+    const t = el('text', { class: 'origin-label', x, y }, g);
+    t.textContent = text;
+  }
 }
 
 function buildMap() {
@@ -65,8 +130,49 @@ function buildMap() {
   const x0 = Math.min(...xs) - pad, x1 = Math.max(...xs) + pad;
   const y0 = Math.min(...ys) - pad, y1 = Math.max(...ys) + pad;
   home = [x0, -y1, x1 - x0, y1 - y0];
+  drawOrigin();
   setView(home.slice());
   enablePanZoom($('map'));
+  enableTooltip($('map'));
+  window.addEventListener('resize', () => setView(view));
+}
+
+// Hovering a marker or body on the map shows its numbers (from the element's data attributes,
+// i.e. the last stream message).
+function enableTooltip(svg) {
+  const tip = $('tip');
+  const show = (e) => {
+    const g = e.target.closest && e.target.closest('g.marker, g.body');
+    if (!g) { tip.hidden = true; return; }
+    const d = g.dataset;
+    const isBody = g.classList.contains('body');
+    const name = isBody ? d.name : (state.layout.markers[d.id] || '');
+    const yaw = isBody && d.hasYaw !== '1' ? '–' : `${fmt(Number(d.yaw) * 180 / Math.PI, 1)}°`;
+    const rows = [
+      [isBody ? 'body' : 'marker', isBody ? name : `${d.id}${name ? ' ' + name : ''}`],
+      ['x, y, z', `${fmt(Number(d.x), 3)}, ${fmt(Number(d.y), 3)}, ${fmt(Number(d.z), 3)} m`],
+      ['yaw', yaw],
+      ['speed', d.speed === undefined || d.speed === '' ? '–' : `${fmt(Number(d.speed), 2)} m/s`],
+    ];
+    if (isBody) rows.push(['markers', d.ids.replaceAll(',', ' ')]);
+    rows.push(['cameras', d.cameras.replaceAll(',', ' ') || '–'], ['age', `${fmt(Number(d.age), 1)} s`]);
+    tip.textContent = '';
+    for (const [k, v] of rows) {
+      const line = document.createElement('div');
+      const b = document.createElement('b');
+      b.textContent = `${k} `;
+      line.append(b, v);
+      tip.appendChild(line);
+    }
+    const r = svg.getBoundingClientRect();
+    tip.style.left = `${e.clientX - r.left + 14}px`;
+    tip.style.top = `${e.clientY - r.top + 14}px`;
+    tip.dataset.for = isBody ? `body:${d.name}` : `marker:${d.id}`;
+    tip.hidden = false;
+  };
+  svg.addEventListener('pointermove', show);
+  svg.addEventListener('pointerover', show);
+  svg.addEventListener('pointerleave', () => { tip.hidden = true; });
 }
 
 function enablePanZoom(svg) {
@@ -121,7 +227,9 @@ function drawMarkers(msg) {
     g.setAttribute('transform', `translate(${m.x.toFixed(4)} ${(-m.y).toFixed(4)})`);
     g.querySelector('line').setAttribute('transform', `rotate(${yawDeg.toFixed(2)})`);
     const cams = cameraNames(m.cameras);
-    Object.assign(g.dataset, { x: m.x, y: m.y, yaw: m.yaw, age: m.age, cameras: cams.join(',') });
+    const speed = m.vx === null || m.vx === undefined || m.vy === null ? null : Math.hypot(m.vx, m.vy);
+    Object.assign(g.dataset, { x: m.x, y: m.y, z: m.z, yaw: m.yaw, speed: speed === null ? '' : speed, age: m.age,
+                               cameras: cams.join(',') });
     g.classList.toggle('stale', m.age > STALE_S);
     const name = state.layout.markers[id];
     g.querySelector('text.label').textContent = name ? `${id} ${name}` : id;
@@ -133,15 +241,43 @@ function drawMarkers(msg) {
     state.trails.set(id, trail);
     trails.querySelector(`polyline[data-id="${id}"]`)
       .setAttribute('points', trail.map(([x, y]) => `${x.toFixed(3)},${(-y).toFixed(3)}`).join(' '));
+    drawMarkerRow(m, name, cams, speed);
   }
   for (const g of [...layer.querySelectorAll('g.marker')]) {
     if (seen.has(g.dataset.id)) continue;
+    const row = $('markers-table').querySelector(`tr[data-marker="${g.dataset.id}"]`);
+    if (row) row.remove();
     g.remove();
     const t = trails.querySelector(`polyline[data-id="${g.dataset.id}"]`);
     if (t) t.remove();
     state.trails.delete(g.dataset.id);
   }
   $('markers').dataset.update = msg.update;
+}
+
+// The Markers table: one row per marker on the stream, sorted by id. Cells carry data-field
+// (marker_*) and the unrounded value in data-value, as the Bodies and Health tables do.
+function drawMarkerRow(m, name, cams, speed) {
+  const body = $('markers-table').querySelector('tbody');
+  const id = String(m.id);
+  let tr = body.querySelector(`tr[data-marker="${id}"]`);
+  if (!tr) {
+    tr = document.createElement('tr');
+    tr.dataset.marker = id;
+    const after = [...body.children].find((r) => Number(r.dataset.marker) > m.id);
+    body.insertBefore(tr, after || null);
+  }
+  tr.textContent = '';
+  tr.classList.toggle('stale', m.age > STALE_S);
+  cell(tr, 'marker_id', id, id, true);
+  cell(tr, 'marker_name', name || '', name || '');
+  cell(tr, 'marker_x', m.x, fmt(m.x, 3), true);
+  cell(tr, 'marker_y', m.y, fmt(m.y, 3), true);
+  cell(tr, 'marker_z', m.z, fmt(m.z, 3), true);
+  cell(tr, 'marker_yaw_deg', m.yaw * 180 / Math.PI, fmt(m.yaw * 180 / Math.PI, 1), true);
+  cell(tr, 'marker_speed', speed, fmt(speed, 2), true);
+  cell(tr, 'marker_cameras', cams.join(','), cams.join(' ') || '–');
+  cell(tr, 'marker_age', m.age, fmt(m.age, 1), true);
 }
 
 // ---------------------------------------------------------------- health
@@ -221,7 +357,7 @@ function drawCameraStats() {
     ['gain', ctl.gain !== undefined ? String(ctl.gain) : 'not set'],
     ['model', c.mapper || '–'],
   ];
-  if (state.frameInfo) rows.push(['frame', `#${state.frameInfo.sequence}: ${state.frameInfo.detections.length} detected, ${state.frameInfo.rejected.length} rejected`]);
+  if (state.frameInfo) rows.push(['frame', `#${state.frameInfo.sequence}: ${state.frameInfo.detections.length} detected, ${state.frameInfo.rejected.length} rejected candidates`]);
   if (s && s.last_error) rows.push(['last error', s.last_error]);
   t.textContent = '';
   for (const [k, v] of rows) {
@@ -231,6 +367,25 @@ function drawCameraStats() {
     tr.append(a, b);
     t.appendChild(tr);
   }
+}
+
+// OpenCV's rejected candidates (from /camera/<name>.json, JPEG pixels) over the image, only
+// while "show rejected candidates" is ticked: most are harmless (the white border around a
+// detected marker), and drawn by default they alarmed new users.
+function drawRejected() {
+  const svg = $('camera-overlay');
+  svg.textContent = '';
+  const info = state.frameInfo;
+  const show = $('show-rejected').checked;
+  svg.dataset.show = show ? '1' : '0';
+  svg.dataset.rejected = 0;
+  if (!info) return;
+  svg.setAttribute('viewBox', `0 0 ${info.width} ${info.height}`);
+  if (!show) return;
+  for (const r of info.rejected) {
+    el('polygon', { class: 'rejected', points: r.map(([x, y]) => `${x.toFixed(1)},${y.toFixed(1)}`).join(' ') }, svg);
+  }
+  svg.dataset.rejected = info.rejected.length;
 }
 
 function nextImage() {
@@ -259,11 +414,20 @@ function startCameraView() {
       state.frameInfo = await (await fetch(`/camera/${encodeURIComponent(state.camera)}.json`)).json();
       img.dataset.sequence = state.frameInfo.sequence;
     } catch (e) { state.frameInfo = null; }
+    drawRejected();
     drawCameraStats();
     setTimeout(nextImage, period);
   });
   img.addEventListener('error', () => setTimeout(nextImage, 1000));
-  sel.addEventListener('change', () => { state.camera = sel.value; state.frameInfo = null; drawCameraStats(); });
+  sel.addEventListener('change', () => {
+    state.camera = sel.value;
+    state.frameInfo = null;
+    drawRejected();
+    drawCameraStats();
+  });
+  const box = $('show-rejected');
+  box.addEventListener('change', drawRejected);
+  if (params.get('rejected') === '1') { box.checked = true; box.dispatchEvent(new Event('change')); }
   state.camera = params.get('camera') || (state.layout.cameras[0] || {}).name;
   sel.value = state.camera;
   nextImage();

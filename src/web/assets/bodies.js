@@ -3,8 +3,8 @@
 // its name, its markers and cameras, and a trail; plus the "Bodies" table. A body known by
 // position only (no yaw: e.g. a lone cube side seen without the top) is drawn as a dashed ring
 // without plates or arrow. Each body is a <g class="body" data-name data-x data-y data-z
-// data-yaw data-has-yaw data-ids data-cameras data-age> so that tools and tests can read back
-// what is drawn. Uses app.js's helpers (el, $, fmt, cell, state, cameraNames); loaded first,
+// data-yaw data-has-yaw data-ids data-cameras data-age data-speed> so that tools and tests
+// can read back what is drawn. Uses app.js's helpers (el, $, fmt, cell, state, cameraNames); loaded first,
 // called only from app.js.
 'use strict';
 
@@ -63,8 +63,9 @@ function drawBodies(msg) {
     v.g.setAttribute('transform', `translate(${b.x.toFixed(4)} ${(-b.y).toFixed(4)})`);
     // World y up, SVG y down: a turn by yaw in the world is a turn by -yaw on the map.
     v.g.querySelector('g.shape').setAttribute('transform', `rotate(${(-b.yaw * 180 / Math.PI).toFixed(2)})`);
+    const speed = b.vx === undefined ? '' : Math.hypot(b.vx, b.vy);
     Object.assign(v.g.dataset, { x: b.x, y: b.y, z: b.z, yaw: b.yaw, hasYaw: b.has_yaw ? 1 : 0,
-                                 ids: b.ids.join(','), cameras: cams.join(','), age: b.age });
+                                 ids: b.ids.join(','), cameras: cams.join(','), age: b.age, speed });
     v.g.classList.toggle('stale', b.age > STALE_S);
     v.g.classList.toggle('no-yaw', !b.has_yaw);
     v.g.querySelector('text.label').textContent = b.name;
