@@ -14,6 +14,9 @@
 
 namespace ips {
 
+/// A failing output logs its send errors at most once per this interval (they are counted always).
+inline constexpr std::int64_t kSendErrorLogIntervalNs = 10'000'000'000;
+
 struct OutputStats {
   std::string description;        ///< "unicast 127.0.0.1:5005 (binary)"
   std::uint64_t datagrams = 0;    ///< sent successfully (datagrams, frames or samples)

@@ -11,12 +11,13 @@
 #include <map>
 #include <set>
 
+#include "angle.h"
 #include "ips/body_estimate.h"
 
 namespace ips {
 namespace {
 
-double wrap(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+using body_detail::wrap;
 
 WorldObservation as_world(const BodyObservation& o, const Eigen::Vector3d& p, double yaw) {
   WorldObservation w;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "angle.h"
 #include "ips/body_estimate.h"
 
 namespace ips {
@@ -16,7 +17,7 @@ namespace {
 // Corners of the black square in marker units (x right, y up as printed), ArUco order.
 constexpr double kCorners[4][2] = {{-0.5, 0.5}, {0.5, 0.5}, {0.5, -0.5}, {-0.5, -0.5}};
 
-double wrap(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+using body_detail::wrap;
 
 }  // namespace
 

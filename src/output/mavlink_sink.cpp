@@ -24,7 +24,6 @@ namespace ips {
 namespace {
 
 constexpr std::int64_t kHeartbeatIntervalNs = 1'000'000'000;
-constexpr std::int64_t kErrorLogIntervalNs = 10'000'000'000;
 constexpr double kTokenCapacity = 2.0;  // absorbs frame-time jitter at a stream rate == the limit
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
@@ -63,7 +62,7 @@ std::array<float, 21> pose_covariance(const MavlinkPose& p, double att_var) {
 }  // namespace
 
 MavlinkSink::MavlinkSink(const OutputConfig& c, const std::string& where)
-    : settings_(c.mavlink), last_error_log_ns_(-kErrorLogIntervalNs) {
+    : settings_(c.mavlink), last_error_log_ns_(-kSendErrorLogIntervalNs) {
   stats_.description = c.describe();
   // Loading fills track_gap from fusion.kalman.reset_after; a config built in code may not.
   if (std::isnan(settings_.track_gap_s)) settings_.track_gap_s = KalmanOptions{}.reset_after_s;
@@ -196,7 +195,7 @@ void MavlinkSink::send(Vehicle& v, const std::vector<std::uint8_t>& frame, std::
   ++stats_.send_errors;
   ++errors_since_log_;
   const std::int64_t now = monotonic_ns();
-  if (now - last_error_log_ns_ >= kErrorLogIntervalNs) {
+  if (now - last_error_log_ns_ >= kSendErrorLogIntervalNs) {
     spdlog::warn("output {}: send to system {} failed: {} ({} frame(s) lost since the last report)",
                  stats_.description, v.config.system_id, n < 0 ? std::strerror(err) : "short write",
                  errors_since_log_);

@@ -27,7 +27,6 @@ using TransformStamped = geometry_msgs_msg_dds__TransformStamped_;
 using Header = std_msgs_msg_dds__Header_;
 
 // At most one log line per output per this interval about failed writes.
-constexpr std::int64_t kErrorLogIntervalNs = 10'000'000'000;
 
 // DDS takes char* for strings it only reads while writing.
 char* c_str(const std::string& s) { return const_cast<char*>(s.c_str()); }
@@ -267,7 +266,7 @@ OutputStats Ros2Sink::stats() const {
 }
 
 void Ros2Sink::run() {
-  std::int64_t last_log = monotonic_ns() - kErrorLogIntervalNs;
+  std::int64_t last_log = monotonic_ns() - kSendErrorLogIntervalNs;
   std::uint64_t errors_since_log = 0;
   while (true) {
     Datagram d;
@@ -284,7 +283,7 @@ void Ros2Sink::run() {
     if (r.errors == 0) continue;
     errors_.fetch_add(r.errors, std::memory_order_relaxed);
     errors_since_log += r.errors;
-    if (const std::int64_t now = monotonic_ns(); now - last_log >= kErrorLogIntervalNs) {
+    if (const std::int64_t now = monotonic_ns(); now - last_log >= kSendErrorLogIntervalNs) {
       spdlog::warn("output {}: DDS write failed: {} ({} sample(s) lost since the last report)", description_,
                    dds_strretcode(r.last_error), errors_since_log);
       last_log = now;

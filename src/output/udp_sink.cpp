@@ -17,11 +17,10 @@ namespace ips {
 
 namespace {
 // At most one log line per output per this interval about send errors (with the count since).
-constexpr std::int64_t kErrorLogIntervalNs = 10'000'000'000;
 }  // namespace
 
 UdpSink::UdpSink(const OutputConfig& c, const std::string& where)
-    : config_(c), last_error_log_ns_(-kErrorLogIntervalNs) {
+    : config_(c), last_error_log_ns_(-kSendErrorLogIntervalNs) {
   stats_.description = c.describe();
   to_.sin_family = AF_INET;
   to_.sin_port = htons(c.port);
@@ -88,7 +87,7 @@ void UdpSink::publish(const Datagram& update) {
     ++stats_.send_errors;
     ++errors_since_log_;
     const std::int64_t now = monotonic_ns();
-    if (now - last_error_log_ns_ >= kErrorLogIntervalNs) {
+    if (now - last_error_log_ns_ >= kSendErrorLogIntervalNs) {
       spdlog::warn("output {}: send failed: {} ({} datagram(s) lost since the last report)", stats_.description,
                    n < 0 ? std::strerror(err) : "short write", errors_since_log_);
       last_error_log_ns_ = now;

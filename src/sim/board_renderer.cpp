@@ -17,7 +17,7 @@
 namespace ips::sim {
 namespace {
 
-constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+constexpr float kNoHitF = std::numeric_limits<float>::quiet_NaN();
 constexpr double kPi = 3.14159265358979323846;
 
 }  // namespace
@@ -100,7 +100,7 @@ void BoardRenderer::render(const BoardPose& pose, const BoardLook& look, cv::Mat
       const Eigen::Vector3d d = Rt * Eigen::Vector3d(uv[x][0], uv[x][1], 1.0);
       const double s = -o.z() / d.z();
       if (!(s > 0)) {
-        out[x] = {kNaNf, kNaNf};
+        out[x] = {kNoHitF, kNoHitF};
         continue;
       }
       // Rays almost parallel to the board meet it very far away: clamp to stay in float range.
