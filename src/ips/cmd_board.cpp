@@ -14,7 +14,7 @@
 #include "ips/calib/board.h"
 #include "ips/error.h"
 
-namespace {
+namespace cmd_board {  // named, not anonymous: unique in a unity build
 
 struct Args {
   std::string board = ips::calib::kDefaultBoardSpec;
@@ -78,4 +78,4 @@ std::function<int()> setup(CLI::App& sub) {
 
 IPS_REGISTER_COMMAND("board", "Write a printable ChArUco calibration board (SVG, optional PNG)", setup);
 
-}  // namespace
+}  // namespace cmd_board

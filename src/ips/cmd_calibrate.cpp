@@ -26,7 +26,7 @@
 namespace fs = std::filesystem;
 using namespace ips::calib;
 
-namespace {
+namespace cmd_calibrate {  // named, not anonymous: unique in a unity build
 
 struct Args {
   std::string images, device, config, camera;
@@ -245,4 +245,4 @@ std::function<int()> setup(CLI::App& sub) {
 
 IPS_REGISTER_COMMAND("calibrate", "Camera intrinsics from ChArUco board views (offline or live)", setup);
 
-}  // namespace
+}  // namespace cmd_calibrate

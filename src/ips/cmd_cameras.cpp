@@ -8,7 +8,7 @@
 #include "command.h"
 #include "ips/v4l2_devices.h"
 
-namespace {
+namespace cmd_cameras {  // named, not anonymous: unique in a unity build
 
 std::string rates(const ips::V4L2FrameSize& size) {
   if (!size.fps_range.empty()) return size.fps_range;
@@ -83,4 +83,4 @@ IPS_REGISTER_COMMAND(
       };
     });
 
-}  // namespace
+}  // namespace cmd_cameras

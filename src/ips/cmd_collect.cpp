@@ -34,7 +34,7 @@
 namespace fs = std::filesystem;
 
 namespace ips::cli {
-namespace {
+namespace cmd_collect {  // named, not anonymous: unique in a unity build
 
 using collect::CameraVerdict;
 using collect::Entry;
@@ -380,5 +380,5 @@ IPS_REGISTER_COMMAND(
       return [a] { return run(*a); };
     });
 
-}  // namespace
+}  // namespace cmd_collect
 }  // namespace ips::cli

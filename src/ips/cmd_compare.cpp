@@ -13,7 +13,7 @@
 #include "ips/error.h"
 
 namespace ips::cli {
-namespace {
+namespace cmd_compare {  // named, not anonymous: unique in a unity build
 
 std::function<int()> setup(CLI::App& sub) {
   struct Args {
@@ -94,5 +94,5 @@ IPS_REGISTER_COMMAND(
     "compare",
     "Compare every mapping method per camera (held-out with --test, else cross-validated)", setup);
 
-}  // namespace
+}  // namespace cmd_compare
 }  // namespace ips::cli

@@ -9,7 +9,7 @@
 #include "ips/error.h"
 
 namespace ips::cli {
-namespace {
+namespace cmd_cv {  // named, not anonymous: unique in a unity build
 
 std::function<int()> setup(CLI::App& sub) {
   struct Args {
@@ -61,5 +61,5 @@ IPS_REGISTER_COMMAND(
     "cv", "Cross-validate a method per camera on calibration pairs (k-fold or leave-one-out)",
     setup);
 
-}  // namespace
+}  // namespace cmd_cv
 }  // namespace ips::cli

@@ -10,7 +10,7 @@
 #include "ips/model_file.h"
 
 namespace ips::cli {
-namespace {
+namespace cmd_eval {  // named, not anonymous: unique in a unity build
 
 std::function<int()> setup(CLI::App& sub) {
   struct Args {
@@ -50,5 +50,5 @@ IPS_REGISTER_COMMAND("eval",
                      "Evaluate a model file on calibration pairs: 3D and 2D error per camera",
                      setup);
 
-}  // namespace
+}  // namespace cmd_eval
 }  // namespace ips::cli

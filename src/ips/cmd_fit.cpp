@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 namespace ips::cli {
-namespace {
+namespace cmd_fit {  // named, not anonymous: unique in a unity build
 
 nlohmann::json training_summary(const CalibData& data, const CalibSet& set, const Mapper& mapper,
                                 const FitOptions& options) {
@@ -163,5 +163,5 @@ IPS_REGISTER_COMMAND(
     "fit", "Fit a camera->world mapper per camera on calibration pairs and write the model file",
     setup);
 
-}  // namespace
+}  // namespace cmd_fit
 }  // namespace ips::cli

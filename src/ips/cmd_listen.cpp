@@ -24,7 +24,7 @@
 #include "ips/packet_codec.h"
 #include "ips/subscription.h"
 
-namespace {
+namespace cmd_listen {  // named, not anonymous: unique in a unity build
 
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
@@ -270,4 +270,4 @@ IPS_REGISTER_COMMAND(
       };
     });
 
-}  // namespace
+}  // namespace cmd_listen

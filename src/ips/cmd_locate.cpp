@@ -17,7 +17,7 @@
 #include "ips/marker_geometry.h"
 #include "ips/model_file.h"
 
-namespace {
+namespace cmd_locate {  // named, not anonymous: unique in a unity build
 
 struct LocateArgs {
   std::string image;
@@ -166,4 +166,4 @@ IPS_REGISTER_COMMAND(
       return [a] { return run_locate(*a); };
     });
 
-}  // namespace
+}  // namespace cmd_locate

@@ -28,7 +28,7 @@
 namespace fs = std::filesystem;
 
 namespace ips::cli {
-namespace {
+namespace cmd_record {  // named, not anonymous: unique in a unity build
 
 struct Args {
   std::string config, out;
@@ -180,5 +180,5 @@ IPS_REGISTER_COMMAND(
       return [a] { return run(*a); };
     });
 
-}  // namespace
+}  // namespace cmd_record
 }  // namespace ips::cli

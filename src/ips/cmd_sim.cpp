@@ -24,7 +24,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace cmd_sim {  // named, not anonymous: unique in a unity build
 
 using ips::sim::CameraRenderer;
 using ips::sim::Scene;
@@ -262,17 +262,17 @@ std::function<int()> setup_sim(CLI::App& sub) {
   };
 }
 
-}  // namespace
+}  // namespace cmd_sim
 
 std::vector<ips::cli::Command>& ips::cli::sim_registry() {
   static std::vector<Command> commands;
   return commands;
 }
 
-namespace {
+namespace cmd_sim {  // named, not anonymous: unique in a unity build
 
 IPS_REGISTER_COMMAND(
     "sim", "Simulated cameras: render frames with ground truth, collect calibration pairs",
     setup_sim);
 
-}  // namespace
+}  // namespace cmd_sim

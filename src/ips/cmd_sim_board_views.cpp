@@ -20,7 +20,7 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace cmd_sim_board_views {  // named, not anonymous: unique in a unity build
 
 struct Args {
   std::string scene, camera, out;
@@ -128,4 +128,4 @@ IPS_REGISTER_SIM_COMMAND("board-views",
                          "Render the ChArUco board at many poses in front of a scene camera, with truth",
                          setup);
 
-}  // namespace
+}  // namespace cmd_sim_board_views

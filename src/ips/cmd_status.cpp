@@ -16,7 +16,7 @@
 #include "command.h"
 #include "ips/error.h"
 
-namespace {
+namespace cmd_status {  // named, not anonymous: unique in a unity build
 
 struct StatusOptions {
   std::string socket = "/run/ipsd/status.sock";
@@ -114,4 +114,4 @@ IPS_REGISTER_COMMAND("status", "Show a running ipsd's per-camera status (reads i
                        return [o] { return run_status(*o); };
                      });
 
-}  // namespace
+}  // namespace cmd_status

@@ -19,7 +19,7 @@
 namespace fs = std::filesystem;
 
 namespace ips::cli {
-namespace {
+namespace cmd_survey {  // named, not anonymous: unique in a unity build
 
 struct Args {
   std::string session, references, out, report, config;
@@ -165,5 +165,5 @@ IPS_REGISTER_COMMAND(
       return [a] { return run(*a); };
     });
 
-}  // namespace
+}  // namespace cmd_survey
 }  // namespace ips::cli

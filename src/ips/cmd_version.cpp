@@ -5,7 +5,7 @@
 
 #include "command.h"
 
-namespace {
+namespace cmd_version {  // named, not anonymous: unique in a unity build
 IPS_REGISTER_COMMAND("version", "Print the version of ips and of the libraries it uses",
                      [](CLI::App&) -> std::function<int()> {
                        return [] {
@@ -13,4 +13,4 @@ IPS_REGISTER_COMMAND("version", "Print the version of ips and of the libraries i
                          return 0;
                        };
                      });
-}  // namespace
+}  // namespace cmd_version
