@@ -15,14 +15,12 @@ duration=${1:-0}
 
 bash tools/setup.sh
 # An existing release build (tools/test.sh's, tools/package.sh's) is reused as it is configured;
-# otherwise build/programs: Release without the tests and benchmarks, which need the test layer
-# (tools/setup.sh --test) and are not built here anyway.
+# otherwise build/programs (tools/configure_programs.sh: Release in unity batches, no tests).
 if [ -f build/release/CMakeCache.txt ] && ! grep -q '^IPS_SANITIZE:BOOL=ON' build/release/CMakeCache.txt; then
   bin=build/release
 else
   bin=build/programs
-  cmake -S . -B "$bin" -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF \
-        -DIPS_BUILD_TESTS=OFF -DIPS_BUILD_BENCHMARKS=OFF >/dev/null
+  bash tools/configure_programs.sh
 fi
 cmake --build "$bin" -j "$(nproc)" --target ips_tool ipsd
 

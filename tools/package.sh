@@ -4,8 +4,8 @@
 #                                (and its debug symbols, build/package/ipsd-dbgsym_<version>_<arch>.ddeb)
 # Install it with `sudo apt install ./build/package/ipsd_*.deb` (README "Install").
 # Installs only what building needs (tools/setup.sh, not the test layer). The build: IPS_BUILD_DIR
-# if set; else build/release when it is configured (tools/test.sh's); else build/programs, the
-# Release build without tests and benchmarks that tools/demo.sh makes too.
+# if set; else build/release when it is configured (tools/test.sh's); else build/programs
+# (tools/configure_programs.sh, as tools/demo.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -17,9 +17,12 @@ elif [ -f build/release/CMakeCache.txt ]; then
 else
   build=build/programs
 fi
-if [ ! -f "$build/CMakeCache.txt" ]; then
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF \
-        -DIPS_BUILD_TESTS=OFF -DIPS_BUILD_BENCHMARKS=OFF >/dev/null
+if [ "$build" = build/programs ] || [ ! -f "$build/CMakeCache.txt" ]; then
+  if [ "$build" != build/programs ]; then
+    echo "package.sh: $build is not configured (configure it, or leave IPS_BUILD_DIR unset)" >&2
+    exit 2
+  fi
+  bash tools/configure_programs.sh
 else
   # Configured before help2man was installed: look for it again (the man pages need it).
   cmake "$build" >/dev/null

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite, from a fresh Debian 12 machine:
 #   1. install the Debian packages (tools/setup.sh),
-#   2. build and test the release configuration,
-#   3. build and test again under AddressSanitizer + UBSan, with clang: the fuzz targets (fuzz/)
+#   2. build the two programs as tools/demo.sh does on a fresh clone (build/programs),
+#   3. build and test the release configuration,
+#   4. build and test again under AddressSanitizer + UBSan, with clang: the fuzz targets (fuzz/)
 #      are libFuzzer programs there and each fuzzes for a few seconds (gcc's release build
 #      replays their corpora once).
 # Usage: bash tools/test.sh            (both configurations)
@@ -13,6 +14,11 @@ cd "$(dirname "$0")/.."
 bash tools/setup.sh --test
 
 jobs=$(nproc)
+# The users' build first (tools/demo.sh's on a fresh clone: unity batches, no tests), so that the
+# README's first command keeps compiling; ~3 min.
+echo "=== programs: configure + build (build/programs, tools/configure_programs.sh) ==="
+bash tools/configure_programs.sh
+cmake --build build/programs -j "$jobs" --target ips_tool ipsd
 configs=${IPS_TEST_CONFIGS:-"release asan"}
 for config in $configs; do
   build="build/$config"
