@@ -8,6 +8,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "ips/accepted_keys.h"
 #include "ips/body.h"
 #include "ips/packet_codec.h"
 
@@ -24,6 +25,7 @@ struct Ctx {
   }
   void only(const YAML::Node& n, const std::string& key, const std::vector<std::string>& keys) const {
     if (!n.IsMap()) error(n, key, "expected a mapping");
+    for (const auto& k : keys) note_accepted_key(key + "." + k);
     for (const auto& kv : n) {
       const std::string k = kv.first.as<std::string>();
       if (std::find(keys.begin(), keys.end(), k) == keys.end()) {

@@ -14,6 +14,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "ips/accepted_keys.h"
 #include "ips/config.h"
 #include "ips/error.h"
 
@@ -50,13 +51,13 @@ class MapReader {
   bool has(const std::string& k) const { return static_cast<bool>(node_[k]); }
 
   YAML::Node node(const std::string& k) {
-    seen_.insert(k);
+    accept(k);
     return node_[k];
   }
 
   template <typename T>
   void get(const std::string& k, T& value, bool required = false) {
-    seen_.insert(k);
+    accept(k);
     const YAML::Node n = node_[k];
     if (!n) {
       if (required) fail(node_, key(k), "required key is missing");
@@ -102,6 +103,11 @@ class MapReader {
   const YAML::Node& raw() const { return node_; }
 
  private:
+  /// `k` is a key of this mapping (finish() will not call it unknown).
+  void accept(const std::string& k) {
+    seen_.insert(k);
+    note_accepted_key(key(k));
+  }
   template <typename T>
   static const char* type_name() {
     if constexpr (std::is_same_v<T, bool>) return "true or false";
