@@ -1,4 +1,4 @@
-// Marker tracking between frames (issue #12): search the whole frame rarely, and in between
+// Marker tracking between frames: search the whole frame rarely, and in between
 // only regions of interest around where each known marker is predicted to be.
 //
 // Per camera, frame by frame:
@@ -34,7 +34,7 @@
 namespace ips {
 
 struct TrackerOptions {
-  /// detection.tracking: false = every frame is a full-frame search (the behaviour before #12).
+  /// detection.tracking: false = every frame is a full-frame search.
   bool enabled = true;
   /// detection.full_search_period: a full-frame search every this many frames (1 = every
   /// frame). It bounds the acquisition of a new marker to this many frames (6 at 30 fps:

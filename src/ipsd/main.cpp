@@ -16,20 +16,16 @@
 
 int main(int argc, char** argv) {
   // The camera threads allocate and free image-sized buffers on every frame (OpenCV's contour
-  // search copies its input, libjpeg its row buffers). glibc hands such memory back to the
-  // kernel on free (the threads' arenas shrink with madvise) and the next frame faults it in
-  // again: ~10 % of the daemon's CPU with 6 replayed cameras (perf, #12). Keep it instead:
-  // the daemon's working set is steady, so this costs no growth.
+  // search copies its input, libjpeg its row buffers). Keep freed memory in the heap instead of
+  // handing it back to the kernel after each frame only to fault it in again on the next: the
+  // working set is steady, so this costs no growth (daemon.cpp trims once a minute).
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  // One heap (arena) for every thread, not glibc's default of up to 8 per core. Each thread
-  // takes an arena at its first allocation, and a restarted camera thread set (a reload
-  // changing the cameras) brings new threads; every arena they touch keeps an image-sized
-  // high-water mark resident for ever, because malloc_trim() (daemon.cpp, once a minute) trims
-  // only the main arena's top and the threshold above stops the others from shrinking. The soak
-  // under faults: +116 MiB/h with the default, the live heap flat (heaptrack); 2 arenas still
-  // stepped up at a camera restart. The cost of sharing one heap's lock, bench_daemon --replay
-  // --cameras 12: ipsd CPU 120-135 % against 116-122 %, latency p99 24-30 ms against 18-19 ms.
+  // One heap (arena) for every thread, not glibc's default of up to 8 per core: each arena keeps
+  // its own image-sized high-water mark resident, and a camera thread restarted by a reload or a
+  // replug takes whichever arena is free, so with many arenas resident memory climbs in steps at
+  // every fault. The price is one heap lock shared by the camera threads (docs/performance.md
+  // has the measured cost and the soak's memory with and without it).
   mallopt(M_ARENA_MAX, 1);
   CLI::App app{"ipsd: indoor positioning daemon (overhead cameras -> ArUco markers -> world positions over UDP)"};
   app.set_version_flag("--version", std::string("ipsd ") + IPS_VERSION);
