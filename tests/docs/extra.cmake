@@ -1,0 +1,2 @@
+# The documentation's relative links and anchors (README.md, CHANGELOG.md, docs/*.md) resolve.
+add_test(NAME docs_links COMMAND python3 ${CMAKE_CURRENT_LIST_DIR}/check_links.py ${PROJECT_SOURCE_DIR})
