@@ -1,6 +1,6 @@
 // bench_soak: the real ipsd for a long time on 3 emulated V4L2 cameras (the LD_PRELOAD
 // emulator of tests/capture, serving pre-rendered 1080p MJPEG frames of the published lab)
-// with faults injected on a schedule, watched from outside. README section "reliability".
+// with faults injected on a schedule, watched from outside. docs/reliability.md.
 //
 // Every --period seconds one fault, in this rotation (one cycle = 8 periods):
 //   unplug     a camera disappears (open/ioctl fail, ENODEV) for 10 s, then comes back

@@ -6,7 +6,9 @@ cut with a TCP reset. Reports the cameras' fps (from /status.json) before / duri
 ipsd's resident memory over time, messages and drops, and whether ipsd is still running.
 
   python3 tools/bench_web.py [--clients 20] [--seconds 60] [--baseline 20]
-Needs build/release/ipsd and build/demo/model.json (tools/demo.sh makes both).
+Needs build/release/ipsd and build/demo/model.json. tools/demo.sh makes the model, and builds
+ipsd in build/release only when that is configured already (tools/test.sh); on a fresh clone it
+builds build/programs instead, so configure build/release first (docs/building.md).
 """
 import argparse
 import json

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's main job: the whole system on three simulated cameras, no hardware needed.
+# The README's first command: the whole system on three simulated cameras, no hardware needed.
 #   1. install the Debian packages needed to build and run (tools/setup.sh: not the test tools),
 #   2. build the two programs (Release),
 #   3. fit the camera->world model once, on calibration pairs collected in the simulator

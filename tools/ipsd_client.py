@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Minimal client of the ipsd position stream (Python standard library only).
 
-Decodes the binary form (layout: include/ips/wire.h, README "daemon") and the JSON-lines
+Decodes the binary form (layout: include/ips/wire.h, docs/stream.md) and the JSON-lines
 form, and prints one line per marker (and per rigid body: version 2). Use it as a starting point for a robot's own code:
 
     python3 tools/ipsd_client.py --port 5005              # unicast/broadcast

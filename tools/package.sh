@@ -2,7 +2,7 @@
 # Builds the Debian package of ipsd from a release build:
 #   bash tools/package.sh     -> build/package/ipsd_<version>_<arch>.deb
 #                                (and its debug symbols, build/package/ipsd-dbgsym_<version>_<arch>.ddeb)
-# Install it with `sudo apt install ./build/package/ipsd_*.deb` (README "Install").
+# Install it with `sudo apt install ./build/package/ipsd_*.deb` (docs/install.md).
 # Installs only what building needs (tools/setup.sh, not the test layer). The build: IPS_BUILD_DIR
 # if set; else build/release when it is configured (tools/test.sh's); else build/programs
 # (tools/configure_programs.sh, as tools/demo.sh).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the replay regression's input (tests/replay/data, README "reliability"): the
+# Regenerates the replay regression's input (tests/replay/data, docs/reliability.md): the
 # committed frames (2 per camera, 960x540) rendered from tests/replay/data/scene.yaml, and the
 # plane model fitted on simulated calibration pairs of the same scene. Run it only when the
 # scene or the renderer changes on purpose; then regenerate the golden output:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The soak under faults (README "reliability"): ipsd on 3 emulated V4L2 cameras for SECONDS
+# The soak under faults (docs/reliability.md): ipsd on 3 emulated V4L2 cameras for SECONDS
 # with a fault every PERIOD seconds (unplug/replug, corrupt frames, SIGHUP good and bad,
 # a listener that disappears, garbage at every port), watched from outside by
 # build/release/tools/bench_soak. Results: OUT/summary.txt (tables), OUT/summary.json,

@@ -1,5 +1,5 @@
 # Usage: python3 tools/soak_readme.py OUT  (OUT = a bench_soak output directory)
-# Markdown figures for README "reliability" from one bench_soak output directory.
+# Markdown figures for docs/reliability.md from one bench_soak output directory.
 import csv, json, statistics, sys
 out = sys.argv[1]
 j = json.load(open(f'{out}/summary.json'))

@@ -1,4 +1,4 @@
-// Lab frame -> the autopilot's local frame for the MAVLink output (README "MAVLink" draws it).
+// Lab frame -> the autopilot's local frame for the MAVLink output (docs/mavlink.md draws it).
 // The lab frame is ENU-like: x forward as the lab defines it, y to its left, z up; yaw counter-
 // clockwise from x. The autopilot's local frame is NED/FRD: x forward (north), y right (east),
 // z down; heading clockwise from x. The lab's x axis points at heading `yaw_offset` in it.

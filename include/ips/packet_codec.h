@@ -31,7 +31,7 @@ struct MarkerRecord {
   std::array<double, 6> covariance{};
 };
 
-/// One rigid body of a fused update (version 2 only; README "bodies"). Units SI.
+/// One rigid body of a fused update (version 2 only; docs/bodies.md). Units SI.
 struct BodyRecord {
   std::string name;               ///< at most IPS_WIRE_BODY_NAME_SIZE - 1 bytes on the wire
   std::uint32_t camera_mask = 0;  ///< bit i = camera i (configuration order) contributed

@@ -1,7 +1,7 @@
 // Camera poses without a tape measure: the `ips record` session files, the wand's still
 // periods found in them, and the bundle adjustment `ips survey` runs (src/survey/).
 //
-// Session directory (written by `ips record`, README section "survey"):
+// Session directory (written by `ips record`, docs/survey.md):
 //   session.txt        header: "ips-record 1", config path, camera fingerprint, cameras
 //   <camera>.det       one line per detected marker per frame:
 //                      t_ns id x0 y0 x1 y1 x2 y2 x3 y3

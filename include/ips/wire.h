@@ -12,7 +12,7 @@
  * then skips them.
  *
  * Versions: ipsd sends version 1 when its configuration has no `bodies:`, version 2 when it
- * has (README "bodies"). A version-1-only receiver refuses version 2 (IPS_WIRE_BAD_VERSION);
+ * has (docs/bodies.md). A version-1-only receiver refuses version 2 (IPS_WIRE_BAD_VERSION);
  * these helpers read both. Version 2 = version 1 + the body section; the header and the
  * marker records are the same.
  *

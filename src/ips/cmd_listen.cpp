@@ -143,7 +143,7 @@ int run_listen(ListenOptions o) {
   bool have_seq = false;
   std::uint32_t last_seq = 0;
   std::map<std::uint32_t, MarkerView> markers;
-  std::map<std::string, BodyView> bodies;  // version 2 streams (README "bodies")
+  std::map<std::string, BodyView> bodies;  // version 2 streams (docs/bodies.md)
   const std::int64_t start = ips::monotonic_ns();
   std::int64_t next_print = start + static_cast<std::int64_t>(o.interval_s * 1e9);
   std::vector<std::uint8_t> buf(65536);

@@ -1,7 +1,7 @@
 // `ips record`: every camera's marker detections for `ips survey`, written as they happen.
 // The cameras are opened exactly as `ips collect` and the daemon open them (collect_cameras);
 // each camera runs on a thread of its own and appends one line per detected marker to its
-// own file (format: include/ips/survey.h, README section "survey"), flushed every frame, so
+// own file (format: include/ips/survey.h, docs/survey.md), flushed every frame, so
 // a session cut short still holds everything up to the cut.
 #include <unistd.h>
 

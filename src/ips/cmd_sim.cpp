@@ -122,7 +122,7 @@ int run_render(const RenderArgs& a) {
         markers[i]["cameras"][name] = truth_json(truth[i]);
     }
     frame["markers"] = markers;
-    // Bodies (README "bodies"): each body's exact pose; its markers are in "markers" with "body".
+    // Bodies (docs/bodies.md): each body's exact pose; its markers are in "markers" with "body".
     if (!scene.bodies.empty()) {
       nlohmann::json bodies = nlohmann::json::array();
       for (std::size_t b = 0; b < scene.bodies.size(); ++b) {

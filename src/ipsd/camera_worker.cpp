@@ -121,7 +121,7 @@ void CameraWorker::process(ips::Frame& frame) {
   if (watched) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
   CameraBatch batch;
   batch.camera_index = index;
-  // cameras[].timestamp_offset: the source's stamp -> mid exposure (README "Time").
+  // cameras[].timestamp_offset: the source's stamp -> mid exposure (docs/daemon.md, "Time").
   const auto offset = static_cast<std::int64_t>(std::llround(config_.timestamp_offset_s * 1e9));
   frame.t_mono_ns += offset;
   frame.t_real_ns += offset;
@@ -133,7 +133,7 @@ void CameraWorker::process(ips::Frame& frame) {
     double height = rt->config.markers.height_of(d.id);
     const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt->sizes.length_of(d.id));
     if (rt->bodies && rt->bodies->body_of(d.id) >= 0) {
-      // A body's marker: its full pose -> a view of the body (README "bodies"); never also a
+      // A body's marker: its full pose -> a view of the body (docs/bodies.md); never also a
       // plain marker. Rejected views (ambiguous, no face fits) are counted.
       ips::BodyObservation view;
       std::string why;

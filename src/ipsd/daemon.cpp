@@ -198,7 +198,7 @@ nlohmann::json Daemon::status_document() {
   auto j = status_json(pipeline_->rates, pipeline_->fusion_stats, pipeline_->queue.dropped(), *runtime_.get(),
                        started_ns_, synthetic_epoch_ns_);
   if (web_) j["web"] = web_counters_json(web_->counters());
-  // Per camera: its own view of each fixed marker (README "survey", bumped camera).
+  // Per camera: its own view of each fixed marker (docs/survey.md, bumped camera).
   for (auto& c : j["cameras"]) c["fixed_markers"] = nlohmann::json::array();
   for (const auto& r : pipeline_->fixed.readings(ips::monotonic_ns()))
     if (r.camera_index >= 0 && static_cast<std::size_t>(r.camera_index) < j["cameras"].size())
@@ -233,7 +233,7 @@ int Daemon::run() {
     if (synthetic) spdlog::info("synthetic cameras: scene time 0 = CLOCK_MONOTONIC {} ns", synthetic_epoch_ns_);
     spdlog::info("ipsd {} running: {} camera(s), fusion '{}', {} output(s)", IPS_VERSION, rt->config.cameras.size(),
                  rt->config.fusion.method, rt->config.outputs.size());
-    // bodies: published as body records, stream version 2 (README "bodies").
+    // bodies: published as body records, stream version 2 (docs/bodies.md).
     if (!rt->config.bodies.empty())
       spdlog::info("bodies: {} configured; the stream is protocol version 2 (body records; their markers are not "
                    "published as plain markers)", rt->config.bodies.size());

@@ -123,7 +123,7 @@ void FusionWorker::run() {
   std::uint64_t counted_late = 0, counted_too_old = 0;
   std::int64_t next_tick = 0;  // fixed-rate output: next publish time, CLOCK_MONOTONIC
   std::vector<ips::FusedMarker> states;
-  std::optional<ips::BodyTrack> bodies = make_body_track(rt->config);  // README "bodies"
+  std::optional<ips::BodyTrack> bodies = make_body_track(rt->config);  // docs/bodies.md
   std::uint64_t counted_body_late = 0;
   std::vector<ips::FusedBody> body_states;
   if (fixed_) fixed_->configure(fixed_positions(rt->config.markers), monitor_options(rt->config.fusion));

@@ -22,7 +22,7 @@ struct CameraRates {
   double detect_ms = 0;   ///< mean detect+locate+map time per frame, ms
   double markers = 0;     ///< mean markers per frame
   std::uint64_t frames = 0, drops = 0, corrupt = 0, failures = 0, no_height = 0;
-  std::uint64_t body_rejected = 0;  ///< body markers whose view gave no body observation (README "bodies")
+  std::uint64_t body_rejected = 0;  ///< body markers whose view gave no body observation (docs/bodies.md)
   std::uint64_t detect_ns_total = 0, markers_total = 0;  ///< since start
 };
 
@@ -49,7 +49,7 @@ class RateSampler {
 std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fusion, std::uint64_t queue_drops);
 /// "red 29.9 fps, white 30.0 fps, black down" for sd_notify STATUS=.
 std::string systemd_status(const RateSampler& rates);
-/// The JSON document served on the status socket (README documents its fields).
+/// The JSON document served on the status socket (docs/daemon.md documents its fields).
 nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::uint64_t queue_drops,
                            const Runtime& runtime, std::int64_t started_mono_ns, std::int64_t synthetic_epoch_mono_ns);
 

@@ -1,4 +1,4 @@
-// type: mavlink — MAVLink 2 pose messages for PX4 / ArduPilot vehicles over UDP (README "MAVLink").
+// type: mavlink — MAVLink 2 pose messages for PX4 / ArduPilot vehicles over UDP (docs/mavlink.md).
 // Per configured vehicle: the marker's pose converted from the lab frame (x forward, y left,
 // z up) to the autopilot's local NED/FRD frame, sent as VISION_POSITION_ESTIMATE and/or
 // ODOMETRY under the vehicle's system id, at most rate_limit_hz, with reset_counter counting

@@ -1,4 +1,4 @@
-// The JSON form of a datagram (README "daemon", wire format): encode_json and its decoder,
+// The JSON form of a datagram (docs/stream.md): encode_json and its decoder,
 // which checks every field's presence, type and range like the binary decoder.
 #include <algorithm>
 #include <cinttypes>

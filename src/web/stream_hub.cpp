@@ -126,7 +126,7 @@ Message StreamHub::markers_message(std::int64_t now) const {
     if (e.has_velocity) o.update({{"vx", m.vx}, {"vy", m.vy}});  // absent: not measured (as for bodies)
     list.push_back(std::move(o));
   }
-  // Bodies (README "bodies"): a position-only body (has_yaw false) has no meaningful yaw or q.
+  // Bodies (docs/bodies.md): a position-only body (has_yaw false) has no meaningful yaw or q.
   auto& bodies = j["bodies"] = nlohmann::json::array();
   for (const auto& [name, e] : bodies_) {
     const BodyRecord& b = e.record;

@@ -1,4 +1,4 @@
-// The whole "Setting up a real lab" workflow of the README, in simulation, as one test:
+// The whole "Setting up a real lab" workflow of docs/lab.md, in simulation, as one test:
 //   board views -> `ips calibrate` (intrinsics) -> a daemon configuration using them ->
 //   `ips collect` with a marker placed at 40 points per camera (positions typed as a user
 //   would: tape-measured with 5 mm noise, some as two distances) -> `ips fit --method plane`

@@ -160,7 +160,7 @@ TEST(Detector, SmallAndLargeMarkers) {
   }
 }
 
-// Against OpenCV's default-parameter detectMarkers on the same frames (README, "Detection"):
+// Against OpenCV's default-parameter detectMarkers on the same frames (docs/perception.md, "Detection"):
 // - markers of 24-35 px (7.5 cm over the whole image, squeezed by the fisheye towards the
 //   edge): found with the default settings (automatic scale and smallest marker);
 // - dim, low-contrast frames (paper 60, ink 30 grey levels before a 35 % vignette, a 50 %

@@ -69,7 +69,7 @@ TEST(Verify, KeepsGenuineObliqueBlurredMarkers) {
   // Left out: 24 px high with sigma 2.2 (blur wider than half the 4 px cell height). OpenCV
   // reads id 3 there from corners 2-4 px (up to a cell) off the truth; ips's edge fit is as
   // far off (its profiles never reach the black level of the blurred 4 px border), the grid
-  // then reads part of the border white, and the verification drops the marker (README).
+  // then reads part of the border white, and the verification drops the marker (docs/perception.md).
   for (const double h : {40.0, 30.0, 24.0}) {
     for (const double sigma : {1.0, 1.6, 2.2}) {
       if (h < 25 && sigma > 2) continue;

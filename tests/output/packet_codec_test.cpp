@@ -44,7 +44,7 @@ Datagram sample(bool velocity, int n_markers) {
 TEST(PacketCodec, BinaryBytesAreLittleEndianAtDocumentedOffsets) {
   const auto bytes = encode_binary(sample(false, 1));
   ASSERT_EQ(bytes.size(), 48u + 36u);
-  // Header, checked byte by byte against the README table.
+  // Header, checked byte by byte against the table of docs/stream.md.
   EXPECT_EQ(bytes[0], 'I');
   EXPECT_EQ(bytes[1], 'P');
   EXPECT_EQ(bytes[2], 'S');

@@ -1,4 +1,4 @@
-// Replay regression (README "reliability"), as gpsd replays captured logs: committed camera
+// Replay regression (docs/reliability.md), as gpsd replays captured logs: committed camera
 // frames (tests/replay/data/frames: 2 cameras x 2 frames, 960x540, four robots standing
 // still) are replayed through the real ipsd (file sources, looped), and what it publishes is
 // compared with the committed golden output (tests/replay/data/golden.json) within a tolerance.

@@ -119,7 +119,7 @@ fs::path write_scene(const std::string& name, const std::string& body) {
   return p;
 }
 
-// What the README's scene section promises a reader, each statement pinned down.
+// What docs/simulator.md's scene section promises a reader, each statement pinned down.
 TEST(Scene, DocumentedTrajectoryConventions) {
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
   const double deg = std::numbers::pi / 180;

@@ -3,7 +3,7 @@
 // -> `ips survey` with three floor references -> camera poses vs the scene's truth; then the
 // surveyed model on the locate pipeline (`ips sim collect`: rendered placements, the
 // daemon's detector and depth formula, exact world truth): 2-D error p95 <= 1 cm.
-// The test's wand path is one short loop (~22 s, 0.8 s pauses); README "survey" has the 90 s
+// The test's wand path is one short loop (~22 s, 0.8 s pauses); docs/survey.md has the 90 s
 // run. Release only: rendering four 1080p cameras in real time is far too slow under the
 // sanitizers (the same chain minus the renderer runs there: survey_solve_test.cpp).
 #include <algorithm>

@@ -80,7 +80,7 @@ class WebBrowserTest : public ::testing::Test {
     c += "model_file: model.json\n";
     c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(rx_.port) + ", format: binary}\n";
     // At 4 fps a body seen by one camera has no two poses within the default velocity span
-    // (0.2 s): no velocity (README "bodies"). 2 s spans 8 frames, so that a loaded machine's
+    // (0.2 s): no velocity (docs/bodies.md). 2 s spans 8 frames, so that a loaded machine's
     // late frames still leave two poses in it (only parked robots are checked for accuracy).
     c += "fusion: {velocity_span: 2.0}\n";
     c += "status: {interval: 0}\n";
@@ -372,7 +372,7 @@ TEST_F(WebBrowserTest, MarkersTableShowsTheStreamsNumbersAndRejectedCandidatesOn
   EXPECT_NE(dom_on.find(std::to_string(squares.size()) + " rejected candidates"), std::string::npos);
 }
 
-// The documented screenshot URL (README "web"): the page ends its stream and camera requests,
+// The documented screenshot URL (docs/web.md): the page ends its stream and camera requests,
 // so headless Chromium's --screenshot finishes.
 TEST_F(WebBrowserTest, HeadlessChromiumFinishesAScreenshotOfTheDocumentedUrl) {
   ASSERT_TRUE(ready()) << test::read_file(log_);

@@ -1,5 +1,5 @@
 // bench_soak's figures and their two forms: OUT/summary.json (machine-readable) and
-// OUT/summary.txt (tables for the README), plus OUT/samples.csv (every 10 s sample).
+// OUT/summary.txt (tables for docs/reliability.md), plus OUT/samples.csv (every 10 s sample).
 // Header-only; used by tools/bench_soak.cpp only.
 #pragma once
 

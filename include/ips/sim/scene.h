@@ -1,5 +1,5 @@
 // A simulated lab: cameras (intrinsics + pose), a textured floor, and ArUco markers that
-// stand still or follow trajectories. Loaded from a scene YAML file (see README, perception).
+// stand still or follow trajectories. Loaded from a scene YAML file (see docs/simulator.md).
 //
 // World frame: x, y on the floor (origin at one floor corner, floor spans [0, size_x] x
 // [0, size_y]), z up, metres. Camera frame (OpenCV): x right in the image, y down, z along

@@ -1,4 +1,4 @@
-// ipsd live view, rigid bodies (README "bodies"): each body on the floor map as its markers'
+// ipsd live view, rigid bodies (docs/bodies.md): each body on the floor map as its markers'
 // plates seen from above (from /layout.json), turned by the body's yaw, with a heading arrow,
 // its name, its markers and cameras, and a trail; plus the "Bodies" table. A body known by
 // position only (no yaw: e.g. a lone cube side seen without the top) is drawn as a dashed ring
