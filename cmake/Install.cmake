@@ -46,6 +46,11 @@ install(FILES ${PROJECT_BINARY_DIR}/packaging/ipsd.service DESTINATION "/\${IPS_
 install(FILES packaging/sysusers.conf DESTINATION lib/sysusers.d RENAME ipsd.conf)
 install(FILES config/ipsd.yaml DESTINATION "/\${IPS_ETC_DIR}")
 install(FILES README.md packaging/deb/copyright DESTINATION ${CMAKE_INSTALL_DOCDIR})
+# The manual beside the README, so that the installed README's links into docs/ resolve.
+# (CHANGELOG.md stays in the source tree: lintian warns about an upstream changelog not named
+# changelog.gz, and the package keeps to the documented warnings.)
+file(GLOB IPS_DOC_PAGES CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/docs/*.md ${PROJECT_SOURCE_DIR}/docs/*.png)
+install(FILES ${IPS_DOC_PAGES} DESTINATION ${CMAKE_INSTALL_DOCDIR}/docs)
 install(FILES tools/ipsd_client.py DESTINATION ${CMAKE_INSTALL_DATADIR}/ipsd
         PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ GROUP_EXECUTE WORLD_READ WORLD_EXECUTE)
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The Debian package: its contents and control fields, lintian (no errors; the only warnings the
-# documented ones, README "Install"), and the simulated lab run from the package's own files with
+# documented ones, docs/install.md), and the simulated lab run from the package's own files with
 # no build tree (ipsd-demo from the .deb unpacked with dpkg-deb -x; positions must be streamed).
 # Then, as root, installed for real: dpkg -i, the ipsd user, the unit enabled, ipsd-demo run as
 # an ordinary user (nobody), `ipsd --check` as the ipsd user (refuses the unconfigured example
@@ -37,12 +37,19 @@ ddeb=$(ls "$work"/pkg/ipsd-dbgsym_*.ddeb) || fail "no ipsd-dbgsym .ddeb next to 
 dpkg-deb -c "$deb" | awk '{print $6}' | sed 's|^\./|/|' | grep -v '/$' | sort >"$work/files"
 for f in /usr/bin/ipsd /usr/bin/ips /usr/bin/ipsd-demo /lib/systemd/system/ipsd.service \
          /usr/lib/sysusers.d/ipsd.conf /etc/ipsd/ipsd.yaml /usr/share/doc/ipsd/README.md \
+         /usr/share/doc/ipsd/docs/install.md /usr/share/doc/ipsd/docs/configuration.md \
+         /usr/share/doc/ipsd/docs/daemon.md /usr/share/doc/ipsd/docs/web_view.png \
          /usr/share/doc/ipsd/copyright /usr/share/doc/ipsd/changelog.Debian.gz \
          /usr/share/man/man1/ipsd.1.gz /usr/share/man/man1/ips.1.gz /usr/share/man/man1/ipsd-demo.1.gz \
          /usr/share/ipsd/examples/demo.yaml /usr/share/ipsd/examples/model.json \
          /usr/share/ipsd/examples/scenes/ou2023.yaml /usr/share/ipsd/calib_data/ou2023/intrinsics_red.yaml \
          /usr/share/ipsd/calib_data/ou2023/train40.csv; do
   grep -qx "$f" "$work/files" || fail "$f is not in the package"
+done
+# The whole manual beside the README, whose links point into docs/.
+for page in "$src"/docs/*.md "$src"/docs/*.png; do
+  f=/usr/share/doc/ipsd/docs/$(basename "$page")
+  grep -qx "$f" "$work/files" || fail "$f is not in the package (docs/$(basename "$page"))"
 done
 dpkg-deb -e "$deb" "$work/control"
 grep -qx /etc/ipsd/ipsd.yaml "$work/control/conffiles" || fail "ipsd.yaml is not a conffile"
@@ -67,7 +74,7 @@ for p in ipsd ips; do
 done
 
 echo "== lintian"
-# Warnings allowed, each with its reason in README "Install": no Debian bug to close (the package
+# Warnings allowed, each with its reason in docs/install.md: no Debian bug to close (the package
 # is not in the archive); the .debug files of a Release build hold symbol tables, no DWARF.
 allowed='initial-upload-closes-no-bugs|debug-file-with-no-debug-symbols'
 lintian --display-info "$deb" "$ddeb" >"$work/lintian.log" 2>&1 || true
@@ -110,7 +117,7 @@ getent passwd ipsd >/dev/null || fail "no ipsd user after install"
 id -nG ipsd | tr ' ' '\n' | grep -qx video || fail "ipsd is not in the video group: $(id -nG ipsd)"
 grep -qx 'ExecStart=/usr/bin/ipsd --config /etc/ipsd/ipsd.yaml' /lib/systemd/system/ipsd.service ||
   fail "the installed unit does not run /usr/bin/ipsd on /etc/ipsd/ipsd.yaml"
-# The priority and watchdog the soak's figures were measured with (README "reliability").
+# The priority and watchdog the soak's figures were measured with (docs/reliability.md).
 for line in Nice=-5 CPUWeight=400 WatchdogSec=10 Type=notify; do
   grep -qx "$line" /lib/systemd/system/ipsd.service || fail "the installed unit lacks $line"
 done
