@@ -2,8 +2,8 @@
 // HTTP; src/web/server.cpp then routes on method and path): route_request and the embedded
 // asset lookup. Input: "METHOD PATH" (the first space splits them; CivetWeb hands the path
 // already without its query string). Beyond "no fault": whatever is routed to an asset or a
-// camera carries a name that cannot leave its namespace (no '/', no "..", printable), and
-// only GET is ever served.
+// camera carries a name that cannot leave its namespace (no '/', no "..", printable), only GET
+// and HEAD are ever served, and exactly HEAD is answered without a body.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -20,7 +20,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const ips::Route r = ips::route_request(method, path);
   using Kind = ips::Route::Kind;
   const bool served = r.kind != Kind::kBadRequest && r.kind != Kind::kBadMethod && r.kind != Kind::kNotFound;
-  if (served && method != "GET") std::abort();
+  if (served && method != "GET" && method != "HEAD") std::abort();
+  if (served && r.head != (method == "HEAD")) std::abort();
   if (r.kind == Kind::kAsset || r.kind == Kind::kCameraJpeg || r.kind == Kind::kCameraJson) {
     if (r.name.empty() || r.name.find('/') != std::string::npos || r.name.find("..") != std::string::npos)
       std::abort();

@@ -128,7 +128,8 @@ def main():
     put("subscription", "reply_challenge.bin", b"IPSA" + bytes([1, 1, 0, 0]) + struct.pack("<HH", 0, 0) + cookie)
     put("subscription", "subnet.txt", "192.168.1.0/24")
     for i, line in enumerate(["GET /", "GET /status.json", "GET /events", "GET /assets/app.js",
-                              "GET /camera/red.jpg", "GET /camera/white.json", "POST /", "GET /../etc/passwd"]):
+                              "GET /camera/red.jpg", "GET /camera/white.json", "POST /", "GET /../etc/passwd",
+                              "HEAD /status.json"]):
         put("web_request", "request_%d.txt" % i, line)
     put("det_session", "session_two_cameras.txt",
         "ips-record 1\n# comment\nconfig /etc/ipsd/ipsd.yaml\nfingerprint 0123456789abcdef\ndictionary DICT_4X4_100\n"

@@ -207,8 +207,8 @@ int handle_on_this_thread(mg_connection* conn, WebServer::Impl* impl) {
 // 100 KiB), too small for OpenCV's encoder and ArUco search in the camera view, and overflowed
 // under the sanitizers even by plain pages. So each request is handled on a thread with the
 // default stack while CivetWeb's thread waits; a stream's thread lives as long as the stream.
-int handle_request(mg_connection* conn, void* data) {
-  auto* impl = static_cast<WebServer::Impl*>(data);
+/// A request on the roomy thread: the address's slot (or a 503 without one), then the route.
+int handle_within_limits(mg_connection* conn, WebServer::Impl* impl) {
   const mg_request_info* ri = mg_get_request_info(conn);
   const std::string address = ri->remote_addr;
   if (!impl->enter(address)) {  // this address has max_per_address requests or streams in progress
@@ -223,9 +223,16 @@ int handle_request(mg_connection* conn, void* data) {
     const std::string& address;
     ~Leave() { impl->leave(address); }
   } leave{impl, address};
+  return handle_on_this_thread(conn, impl);
+}
+
+int handle_request(mg_connection* conn, void* data) {
+  auto* impl = static_cast<WebServer::Impl*>(data);
   int status = 0;
   try {
-    std::thread worker([&] { status = handle_on_this_thread(conn, impl); });
+    // Every answer, the 503 of a limited address too, is written from the roomy thread: even
+    // mg_printf overflowed CivetWeb's own stack under the sanitizers.
+    std::thread worker([&] { status = handle_within_limits(conn, impl); });
     worker.join();
   } catch (const std::system_error& e) {  // no thread: answer on this one, briefly
     spdlog::warn("web: cannot start a request thread: {}", e.what());
