@@ -33,19 +33,6 @@ int count(const std::string& text, const std::string& needle) {
   return n;
 }
 
-/// A TCP port that was free a moment ago on 127.0.0.1.
-int free_tcp_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t len = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
-
 /// The blocked-signal mask of every thread of `pid` (its SigBlk line in /proc), by thread id.
 std::map<std::string, std::uint64_t> blocked_masks(pid_t pid) {
   std::map<std::string, std::uint64_t> masks;
@@ -86,7 +73,7 @@ class DaemonSignalsTest : public ::testing::Test {
     if (sub_port_ == 0) {  // chosen once: a rewritten config changes only what the caller asks
       sub_port_ = test::free_udp_port();
       for (auto& p : other_ports_) p = test::free_udp_port();
-      web_port_ = free_tcp_port();
+      web_port_ = support::free_loopback_port(SOCK_STREAM);
     }
     std::string c = "cameras:\n";
     for (const char* name : {"red", "white", "black"})

@@ -14,6 +14,8 @@
 #include <utility>
 #include <vector>
 
+#include "loopback_udp.h"
+
 namespace ips::test {
 
 class TcpClient {
@@ -152,16 +154,6 @@ class EventStream {
 };
 
 /// A TCP port that was free a moment ago on 127.0.0.1.
-inline int free_tcp_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t len = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
+inline int free_tcp_port() { return support::free_loopback_port(SOCK_STREAM); }
 
 }  // namespace ips::test

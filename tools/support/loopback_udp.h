@@ -1,5 +1,5 @@
 // A UDP receiver on 127.0.0.1 at a free port the kernel chooses: where tests and benchmarks
-// point ipsd's output and read what it sends. Header-only; shared by tests/ and tools/bench_*.
+// point ipsd's output and read what it sends; and a free loopback port for anything else. Header-only; shared by tests/ and tools/bench_*.
 #pragma once
 
 #include <arpa/inet.h>
@@ -13,6 +13,20 @@
 #include <vector>
 
 namespace ips::support {
+
+/// A port on 127.0.0.1 that the kernel considers free right now, for SOCK_DGRAM or SOCK_STREAM
+/// (bound and released: another process could take it in between, unlikely enough for tests).
+inline std::uint16_t free_loopback_port(int type) {
+  const int fd = ::socket(AF_INET, type | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  socklen_t len = sizeof a;
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  ::close(fd);
+  return ntohs(a.sin_port);
+}
 
 struct UdpReceiver {
   int fd = -1;

@@ -24,6 +24,8 @@
 #include <thread>
 #include <vector>
 
+#include "loopback_udp.h"
+
 extern char** environ;
 
 namespace ips::soak {
@@ -213,16 +215,6 @@ inline int http_get_status(std::uint16_t port, const std::string& path) {
 }
 
 /// A loopback port the kernel considers free right now (for the web and subscription ports).
-inline std::uint16_t free_port(int type) {
-  const int fd = ::socket(AF_INET, type | SOCK_CLOEXEC, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t len = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
+inline std::uint16_t free_port(int type) { return support::free_loopback_port(type); }
 
 }  // namespace ips::soak
