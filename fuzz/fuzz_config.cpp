@@ -6,8 +6,8 @@
 #include <string>
 
 #include "fuzz_util.h"
-#include "ips/config.h"
-#include "ips/error.h"
+#include "ips/config/config.h"
+#include "ips/core/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(ips::fuzz::as_text(data, size));

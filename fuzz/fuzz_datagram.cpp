@@ -1,6 +1,6 @@
 // The position stream's decoders, fed what any host on the network can send to a listener:
 // decode_datagram (binary and JSON lines; ips listen, the tests, client code) and the C
-// decoder robots compile from include/ips/wire.h. Beyond "no fault", the two binary decoders
+// decoder robots compile from include/ips/output/wire.h. Beyond "no fault", the two binary decoders
 // must agree: a datagram the C++ decoder accepts, the C decoder accepts with the same header
 // and records (marker and, version 2, body records); and what decodes re-encodes to something that decodes the same.
 #include <cmath>
@@ -9,9 +9,9 @@
 #include <cstdlib>
 #include <span>
 
-#include "ips/error.h"
-#include "ips/packet_codec.h"
-#include "ips/wire.h"
+#include "ips/core/error.h"
+#include "ips/output/packet_codec.h"
+#include "ips/output/wire.h"
 
 namespace {
 void check(bool ok) {

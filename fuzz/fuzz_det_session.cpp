@@ -10,8 +10,8 @@
 #include <string_view>
 
 #include "fuzz_util.h"
-#include "ips/error.h"
-#include "ips/survey.h"
+#include "ips/core/error.h"
+#include "ips/survey/survey.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text = ips::fuzz::as_text(data, size);

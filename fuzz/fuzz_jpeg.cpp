@@ -11,8 +11,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "ips/jpeg_decoder.h"
-#include "ips/jpeg_region_decoder.h"
+#include "ips/capture/jpeg_decoder.h"
+#include "ips/capture/jpeg_region_decoder.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static ips::JpegDecoder decoder;

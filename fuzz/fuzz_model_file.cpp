@@ -7,8 +7,8 @@
 #include <Eigen/Core>
 
 #include "fuzz_util.h"
-#include "ips/error.h"
-#include "ips/model_file.h"
+#include "ips/core/error.h"
+#include "ips/mapping/model_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const auto path = ips::fuzz::write_file("models.json", ips::fuzz::as_text(data, size));

@@ -7,7 +7,7 @@
 #include <filesystem>
 
 #include "fuzz_util.h"
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "ips/sim/scene.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

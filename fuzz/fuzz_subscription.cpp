@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "fuzz_util.h"
-#include "ips/subscription.h"
+#include "ips/output/subscription.h"
 
 namespace sub = ips::subscription;
 

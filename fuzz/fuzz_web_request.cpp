@@ -10,7 +10,7 @@
 #include <string>
 
 #include "fuzz_util.h"
-#include "ips/web.h"
+#include "ips/web/web.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(ips::fuzz::as_text(data, size));

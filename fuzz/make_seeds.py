@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes the fuzz seeds in fuzz/corpus/ (run from anywhere): copies of repository files,
-hand-made datagrams and requests (layouts of include/ips/wire.h), small JPEGs of a real photo.
+hand-made datagrams and requests (layouts of include/ips/output/wire.h), small JPEGs of a real photo.
 The model_file seeds are `ips fit` outputs, made by
   for m in rt pr rt+pr ann ki plane auto; do
     ips fit --data calib_data/ou2023/train40.csv --camera red --method $m --out fuzz/corpus/model_file/red_${m/+/_}.json

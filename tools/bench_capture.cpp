@@ -27,8 +27,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/jpeg_decoder.h"
-#include "ips/v4l2_source.h"
+#include "ips/capture/jpeg_decoder.h"
+#include "ips/capture/v4l2_source.h"
 
 extern char** environ;
 

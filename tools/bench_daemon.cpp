@@ -48,8 +48,8 @@
 
 #include "child_process.h"
 #include "loopback_udp.h"
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
 
 namespace fs = std::filesystem;
 

@@ -5,8 +5,8 @@
 
 #include <string>
 
-#include "ips/calib_data.h"
-#include "ips/mapper.h"
+#include "ips/mapping/calib_data.h"
+#include "ips/mapping/mapper.h"
 
 namespace {
 

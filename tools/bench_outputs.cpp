@@ -12,9 +12,9 @@
 #include <cstdlib>
 #include <vector>
 
-#include "ips/clock.h"
-#include "ips/output_sink.h"
-#include "ips/subscription.h"
+#include "ips/core/clock.h"
+#include "ips/output/output_sink.h"
+#include "ips/output/subscription.h"
 #include "loopback_udp.h"
 
 namespace {

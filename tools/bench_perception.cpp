@@ -38,12 +38,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/detector.h"
-#include "ips/jpeg_decoder.h"
-#include "ips/jpeg_region_decoder.h"
-#include "ips/marker_geometry.h"
+#include "ips/detect/detector.h"
+#include "ips/capture/jpeg_decoder.h"
+#include "ips/capture/jpeg_region_decoder.h"
+#include "ips/geometry/marker_geometry.h"
 #include "ips/sim/renderer.h"
-#include "ips/tracker.h"
+#include "ips/detect/tracker.h"
 
 namespace {
 

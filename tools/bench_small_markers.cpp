@@ -21,8 +21,8 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/core/utility.hpp>
 
-#include "ips/detector.h"
-#include "ips/jpeg_decoder.h"
+#include "ips/detect/detector.h"
+#include "ips/capture/jpeg_decoder.h"
 #include "ips/sim/renderer.h"
 
 namespace {

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Minimal client of the ipsd position stream (Python standard library only).
 
-Decodes the binary form (layout: include/ips/wire.h, docs/stream.md) and the JSON-lines
+Decodes the binary form (layout: include/ips/output/wire.h, docs/stream.md) and the JSON-lines
 form, and prints one line per marker (and per rigid body: version 2). Use it as a starting point for a robot's own code:
 
     python3 tools/ipsd_client.py --port 5005              # unicast/broadcast
@@ -12,7 +12,7 @@ form, and prints one line per marker (and per rigid body: version 2). Use it as 
 
 --subscribe asks a daemon's `subscriptions` output for a unicast stream to this client's own
 address (request, cookie echo, renewal at a third of the lease, unsubscribe at the end; the
-layout is in include/ips/wire.h, "Unicast subscriptions").
+layout is in include/ips/output/wire.h, "Unicast subscriptions").
 """
 import argparse
 import hashlib
@@ -44,7 +44,7 @@ SUB_CHALLENGE, SUB_ACCEPTED, SUB_REFUSED_FULL, SUB_UNSUBSCRIBED = 1, 2, 3, 4
 
 
 def sub_request(ids, fmt, lease_s, cookie, psk, unsubscribe=False) -> bytes:
-    """A subscription request (include/ips/wire.h): op 1 subscribe/renew, 2 unsubscribe."""
+    """A subscription request (include/ips/output/wire.h): op 1 subscribe/renew, 2 unsubscribe."""
     body = SUB_REQUEST.pack(b"IPSQ", 1, 2 if unsubscribe else 1, 1 if fmt == "json" else 0,
                             0 if ids else 1, lease_s, len(ids), cookie)
     body += b"".join(struct.pack("<I", i) for i in ids)

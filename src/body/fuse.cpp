@@ -12,7 +12,7 @@
 #include <set>
 
 #include "angle.h"
-#include "ips/body_estimate.h"
+#include "ips/body/body_estimate.h"
 
 namespace ips {
 namespace {

@@ -2,7 +2,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "ips/body.h"
+#include "ips/body/body.h"
 
 namespace ips {
 

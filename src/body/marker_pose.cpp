@@ -8,7 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
-#include "ips/body_estimate.h"
+#include "ips/body/body_estimate.h"
 
 namespace ips {
 

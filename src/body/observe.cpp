@@ -9,7 +9,7 @@
 #include <numbers>
 
 #include "angle.h"
-#include "ips/body_estimate.h"
+#include "ips/body/body_estimate.h"
 
 namespace ips {
 namespace {

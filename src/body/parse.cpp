@@ -8,9 +8,9 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "ips/accepted_keys.h"
-#include "ips/body.h"
-#include "ips/packet_codec.h"
+#include "ips/core/accepted_keys.h"
+#include "ips/body/body.h"
+#include "ips/output/packet_codec.h"
 
 namespace ips {
 namespace {
@@ -84,7 +84,7 @@ BodyDef parse_body(const YAML::Node& node, const std::string& key, const std::ve
   const YAML::Node name = node["name"];
   if (!name || !name.IsScalar() || name.Scalar().empty()) c.error(name ? name : node, key + ".name", "required: the body's name");
   b.name = name.Scalar();
-  if (!valid_body_name(b.name))  // the stream carries it in 32 NUL-padded bytes (include/ips/wire.h)
+  if (!valid_body_name(b.name))  // the stream carries it in 32 NUL-padded bytes (include/ips/output/wire.h)
     c.error(name, key + ".name", "body name must be 1-31 bytes of UTF-8 without NUL: '" + b.name + "'");
   if (const YAML::Node g = node["ground"]) {
     try {

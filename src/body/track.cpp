@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ips/body_track.h"
+#include "ips/body/body_track.h"
 
 namespace ips {
 

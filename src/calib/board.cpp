@@ -8,8 +8,8 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/detector.h"
-#include "ips/error.h"
+#include "ips/detect/detector.h"
+#include "ips/core/error.h"
 
 namespace ips::calib {
 namespace {

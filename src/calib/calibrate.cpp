@@ -9,7 +9,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips::calib {
 namespace {

@@ -11,7 +11,7 @@ namespace ips::calib {
 std::string model_yaml(const CameraModel& m) {
   const auto& K = m.K();
   const bool fisheye = m.kind() == CameraModel::Kind::kFisheye;
-  std::string s = std::string("# Camera intrinsics (the ipsd intrinsics form, include/ips/camera_model.h): OpenCV ") +
+  std::string s = std::string("# Camera intrinsics (the ipsd intrinsics form, include/ips/geometry/camera_model.h): OpenCV ") +
                   (fisheye ? "fisheye model, D = k1 k2 k3 k4"
                            : (m.D().size() == 12 ? "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4"
                                                  : "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6")) +

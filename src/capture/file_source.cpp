@@ -1,4 +1,4 @@
-#include "ips/file_source.h"
+#include "ips/capture/file_source.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,8 +12,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/clock.h"
-#include "ips/error.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

@@ -1,4 +1,4 @@
-#include "ips/jpeg_decoder.h"
+#include "ips/capture/jpeg_decoder.h"
 
 #include <stdexcept>
 

@@ -1,4 +1,4 @@
-#include "ips/jpeg_region_decoder.h"
+#include "ips/capture/jpeg_region_decoder.h"
 
 #include <algorithm>
 #include <csetjmp>

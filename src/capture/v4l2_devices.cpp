@@ -1,4 +1,4 @@
-#include "ips/v4l2_devices.h"
+#include "ips/capture/v4l2_devices.h"
 
 #include <fcntl.h>
 #include <linux/videodev2.h>

@@ -1,4 +1,4 @@
-#include "ips/v4l2_source.h"
+#include "ips/capture/v4l2_source.h"
 
 #include <fcntl.h>
 #include <linux/videodev2.h>
@@ -17,8 +17,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "capture/v4l2_util.h"
-#include "ips/clock.h"
-#include "ips/error.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

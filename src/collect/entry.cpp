@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "ips/collect.h"
+#include "ips/collect/collect.h"
 
 namespace ips::collect {
 namespace {

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <sstream>
 
-#include "ips/calib_data.h"
-#include "ips/collect.h"
-#include "ips/error.h"
+#include "ips/mapping/calib_data.h"
+#include "ips/collect/collect.h"
+#include "ips/core/error.h"
 
 namespace ips::collect {
 namespace {

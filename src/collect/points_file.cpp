@@ -3,8 +3,8 @@
 #include <cmath>
 #include <sstream>
 
-#include "ips/collect.h"
-#include "ips/error.h"
+#include "ips/collect/collect.h"
+#include "ips/core/error.h"
 
 namespace ips::collect {
 namespace {

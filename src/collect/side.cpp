@@ -2,9 +2,9 @@
 // cameras from the pairs collected so far (a rigid map per camera).
 #include <cstdio>
 
-#include "ips/collect.h"
-#include "ips/error.h"
-#include "ips/mapper.h"
+#include "ips/collect/collect.h"
+#include "ips/core/error.h"
+#include "ips/mapping/mapper.h"
 
 namespace ips::collect {
 

@@ -1,7 +1,7 @@
 // Was the marker seen steadily by one camera over the frames of a placement?
 #include <cmath>
 
-#include "ips/collect.h"
+#include "ips/collect/collect.h"
 
 namespace ips::collect {
 

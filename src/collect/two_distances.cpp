@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "ips/collect.h"
-#include "ips/error.h"
+#include "ips/collect/collect.h"
+#include "ips/core/error.h"
 
 namespace ips::collect {
 

@@ -2,10 +2,10 @@
 // so that parsing does not depend on the mapping stage).
 #include <cmath>
 
-#include "ips/config.h"
-#include "ips/error.h"
-#include "ips/mapper.h"
-#include "ips/model_file.h"
+#include "ips/config/config.h"
+#include "ips/core/error.h"
+#include "ips/mapping/mapper.h"
+#include "ips/mapping/model_file.h"
 
 namespace ips {
 

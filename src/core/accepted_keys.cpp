@@ -1,4 +1,4 @@
-#include "ips/accepted_keys.h"
+#include "ips/core/accepted_keys.h"
 
 namespace ips {
 

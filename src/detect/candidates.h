@@ -8,8 +8,8 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/core.hpp>
 
-#include "ips/detector.h"
-#include "ips/observation.h"
+#include "ips/detect/detector.h"
+#include "ips/core/observation.h"
 
 namespace ips::detail {
 

@@ -7,7 +7,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "ips/observation.h"
+#include "ips/core/observation.h"
 
 namespace ips::detail {
 

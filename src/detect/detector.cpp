@@ -1,4 +1,4 @@
-#include "ips/detector.h"
+#include "ips/detect/detector.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 
 #include "candidates.h"
 #include "edge_refine.h"
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "verify.h"
 
 namespace ips {

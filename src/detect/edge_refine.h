@@ -5,8 +5,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "ips/camera_model.h"
-#include "ips/observation.h"
+#include "ips/geometry/camera_model.h"
+#include "ips/core/observation.h"
 
 namespace ips::detail {
 

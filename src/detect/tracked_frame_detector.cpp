@@ -1,6 +1,6 @@
-#include "ips/tracked_frame_detector.h"
+#include "ips/detect/tracked_frame_detector.h"
 
-#include "ips/clock.h"
+#include "ips/core/clock.h"
 
 namespace ips {
 namespace {

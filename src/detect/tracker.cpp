@@ -1,11 +1,11 @@
-#include "ips/tracker.h"
+#include "ips/detect/tracker.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

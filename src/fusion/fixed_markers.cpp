@@ -1,4 +1,4 @@
-#include "ips/fixed_markers.h"
+#include "ips/fusion/fixed_markers.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,10 +1,10 @@
-#include "ips/fusion.h"
+#include "ips/fusion/fusion.h"
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

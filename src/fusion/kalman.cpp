@@ -1,4 +1,4 @@
-#include "ips/kalman.h"
+#include "ips/fusion/kalman.h"
 
 #include <Eigen/Dense>
 

@@ -1,4 +1,4 @@
-#include "ips/track_fusion.h"
+#include "ips/fusion/track_fusion.h"
 
 #include <algorithm>
 #include <cmath>

@@ -3,7 +3,7 @@
 // Newton iterations run to machine precision, so project(undistort(p)) == p to ~1e-12 px
 // over the whole image (cv::fisheye::undistortPoints stops after 10 fixed-point steps,
 // which leaves up to ~1e-3 px near the border of a 180-degree lens).
-#include "ips/camera_model.h"
+#include "ips/geometry/camera_model.h"
 
 #include <cmath>
 #include <fstream>
@@ -15,7 +15,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "geometry/opencv_yaml.h"
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

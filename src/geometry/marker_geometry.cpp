@@ -1,5 +1,5 @@
 // The marker-size depth formula of the published system (see marker_geometry.h).
-#include "ips/marker_geometry.h"
+#include "ips/geometry/marker_geometry.h"
 
 #include <cmath>
 

@@ -7,7 +7,7 @@
 
 #include <yaml-cpp/eventhandler.h>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips::detail {
 namespace {

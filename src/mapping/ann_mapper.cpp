@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "mapping/json_params.h"
 #include "mapping/levenberg_marquardt.h"
 #include "mapping/mappers.h"

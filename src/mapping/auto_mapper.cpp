@@ -9,8 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ips/cross_validation.h"
-#include "ips/error.h"
+#include "ips/mapping/cross_validation.h"
+#include "ips/core/error.h"
 #include "mapping/json_params.h"
 #include "mapping/mappers.h"
 

@@ -1,5 +1,5 @@
-// CSV loader for calibration pairs (format documented in include/ips/calib_data.h).
-#include "ips/calib_data.h"
+// CSV loader for calibration pairs (format documented in include/ips/mapping/calib_data.h).
+#include "ips/mapping/calib_data.h"
 
 #include <array>
 #include <charconv>
@@ -9,7 +9,7 @@
 #include <map>
 #include <string_view>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

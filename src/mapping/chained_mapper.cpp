@@ -2,7 +2,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "mapping/json_params.h"
 #include "mapping/mappers.h"
 

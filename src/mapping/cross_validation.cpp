@@ -1,7 +1,7 @@
 // k-fold and leave-one-out cross-validation of a method on one camera's pairs.
-#include "ips/cross_validation.h"
+#include "ips/mapping/cross_validation.h"
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 

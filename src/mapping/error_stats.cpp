@@ -1,5 +1,5 @@
 // Error statistics (mean, min, max, sample std) as in the paper's Tables I and II.
-#include "ips/error_stats.h"
+#include "ips/mapping/error_stats.h"
 
 #include <algorithm>
 #include <cmath>

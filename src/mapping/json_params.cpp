@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips::mapping {
 namespace {

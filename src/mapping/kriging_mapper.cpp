@@ -19,7 +19,7 @@
 #include <nlohmann/json.hpp>
 #include <nlopt.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "mapping/json_params.h"
 #include "mapping/mappers.h"
 

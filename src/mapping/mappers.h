@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-#include "ips/mapper.h"
+#include "ips/mapping/mapper.h"
 
 namespace ips::mapping {
 

@@ -1,13 +1,13 @@
 // The model file: {"format": "ipsd-model", "version": 1, "generator": ...,
 //                  "cameras": {"<name>": {"method", "params", "training"}}}.
-#include "ips/model_file.h"
+#include "ips/mapping/model_file.h"
 
 #include <unistd.h>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

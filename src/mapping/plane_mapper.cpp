@@ -13,8 +13,8 @@
 #include <Eigen/LU>
 #include <nlohmann/json.hpp>
 
-#include "ips/cross_validation.h"
-#include "ips/error.h"
+#include "ips/mapping/cross_validation.h"
+#include "ips/core/error.h"
 #include "mapping/json_params.h"
 #include "mapping/levenberg_marquardt.h"
 #include "mapping/mappers.h"

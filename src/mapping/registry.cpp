@@ -2,8 +2,8 @@
 #include <functional>
 #include <utility>
 
-#include "ips/error.h"
-#include "ips/mapper.h"
+#include "ips/core/error.h"
+#include "ips/mapping/mapper.h"
 #include "mapping/mappers.h"
 
 namespace ips {

@@ -4,7 +4,7 @@
 #include <Eigen/SVD>
 #include <nlohmann/json.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "mapping/json_params.h"
 #include "mapping/mappers.h"
 

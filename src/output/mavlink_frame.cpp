@@ -1,4 +1,4 @@
-#include "ips/mavlink_frame.h"
+#include "ips/output/mavlink_frame.h"
 
 #include <cstring>
 

@@ -1,4 +1,4 @@
-#include "ips/mavlink_pose.h"
+#include "ips/output/mavlink_pose.h"
 
 #include <cmath>
 #include <numbers>

@@ -15,9 +15,9 @@
 
 #include <spdlog/spdlog.h>
 
-#include "ips/clock.h"
-#include "ips/error.h"
-#include "ips/kalman.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
+#include "ips/fusion/kalman.h"
 
 namespace ips {
 

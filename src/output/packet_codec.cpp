@@ -1,4 +1,4 @@
-#include "ips/packet_codec.h"
+#include "ips/output/packet_codec.h"
 
 #include <algorithm>
 #include <cinttypes>
@@ -10,8 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ips/error.h"
-#include "ips/wire.h"
+#include "ips/core/error.h"
+#include "ips/output/wire.h"
 #include "packet_codec_detail.h"
 
 namespace ips {

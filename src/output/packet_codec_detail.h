@@ -1,12 +1,12 @@
 // Shared by the binary and JSON halves of the datagram codec (packet_codec.cpp,
-// packet_codec_json.cpp); not part of the public API (include/ips/packet_codec.h).
+// packet_codec_json.cpp); not part of the public API (include/ips/output/packet_codec.h).
 #pragma once
 
 #include <cstdint>
 #include <span>
 #include <string>
 
-#include "ips/packet_codec.h"
+#include "ips/output/packet_codec.h"
 
 namespace ips::codec_detail {
 

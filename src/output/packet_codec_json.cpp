@@ -8,9 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ips/error.h"
-#include "ips/packet_codec.h"
-#include "ips/wire.h"
+#include "ips/core/error.h"
+#include "ips/output/packet_codec.h"
+#include "ips/output/wire.h"
 #include "packet_codec_detail.h"
 
 namespace ips {

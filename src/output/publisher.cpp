@@ -1,4 +1,4 @@
-#include "ips/publisher.h"
+#include "ips/output/publisher.h"
 
 namespace ips {
 

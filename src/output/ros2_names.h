@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-#include "ips/config.h"
+#include "ips/output/output_settings.h"
 
 namespace ips::ros2 {
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <thread>
 
-#include "ips/output_sink.h"
+#include "ips/output/output_sink.h"
 
 namespace ips {
 

@@ -1,6 +1,6 @@
 #include <algorithm>
 
-#include "ips/subscription.h"
+#include "ips/output/subscription.h"
 
 namespace ips::subscription {
 

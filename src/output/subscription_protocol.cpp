@@ -1,4 +1,4 @@
-#include "ips/subscription.h"
+#include "ips/output/subscription.h"
 
 #include <arpa/inet.h>
 

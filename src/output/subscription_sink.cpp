@@ -15,8 +15,8 @@
 #include <sodium.h>
 #include <spdlog/spdlog.h>
 
-#include "ips/clock.h"
-#include "ips/error.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
 
 namespace ips {
 

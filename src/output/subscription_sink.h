@@ -1,5 +1,5 @@
 // type: subscriptions — robots subscribe over UDP and get their own unicast stream
-// (protocol in include/ips/wire.h; docs/subscriptions.md). A receive thread answers requests;
+// (protocol in include/ips/output/wire.h; docs/subscriptions.md). A receive thread answers requests;
 // publish() sends to the verified subscribers with non-blocking sendto from the same socket.
 //
 // Safe by construction: no stream and no reply larger than the request before the source
@@ -20,8 +20,8 @@
 #include <thread>
 #include <vector>
 
-#include "ips/output_sink.h"
-#include "ips/subscription.h"
+#include "ips/output/output_sink.h"
+#include "ips/output/subscription.h"
 
 namespace ips {
 

@@ -11,7 +11,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "ips/clock.h"
+#include "ips/core/clock.h"
 
 namespace ips {
 

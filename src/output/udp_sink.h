@@ -1,4 +1,4 @@
-// unicast | broadcast | multicast outputs: ipsd's own datagrams (include/ips/wire.h) over UDP,
+// unicast | broadcast | multicast outputs: ipsd's own datagrams (include/ips/output/wire.h) over UDP,
 // one non-blocking socket per output, split under IPS_WIRE_MAX_DATAGRAM, numbered per output.
 #pragma once
 
@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include "ips/error.h"
-#include "ips/output_sink.h"
+#include "ips/core/error.h"
+#include "ips/output/output_sink.h"
 
 namespace ips {
 

@@ -16,9 +16,9 @@
 
 #include "plane_sampling.h"
 
-#include "ips/detector.h"
-#include "ips/error.h"
-#include "ips/marker_geometry.h"
+#include "ips/detect/detector.h"
+#include "ips/core/error.h"
+#include "ips/geometry/marker_geometry.h"
 
 namespace ips::sim {
 namespace {

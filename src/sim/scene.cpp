@@ -11,8 +11,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/aruco.hpp>
 
-#include "ips/detector.h"
-#include "ips/error.h"
+#include "ips/detect/detector.h"
+#include "ips/core/error.h"
 
 namespace ips::sim {
 namespace {
@@ -195,7 +195,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
   return t;
 }
 
-// bodies: each a body definition (ips/body.h) plus its start pose (x, y, height of the origin,
+// bodies: each a body definition (ips/body/body.h) plus its start pose (x, y, height of the origin,
 // yaw_deg, roll_deg, pitch_deg) and an optional trajectory; its markers join scene.markers.
 void read_bodies(const Reader& r, const YAML::Node& bs, const std::filesystem::path& scene_dir, int dictionary_size,
                  Scene& scene) {

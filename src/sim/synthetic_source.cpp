@@ -7,8 +7,8 @@
 #include <cmath>
 #include <thread>
 
-#include "ips/clock.h"
-#include "ips/error.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
 
 namespace ips::sim {
 

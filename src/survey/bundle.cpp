@@ -13,7 +13,7 @@
 #include <ceres/rotation.h>
 #include <Eigen/Geometry>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "survey/views.h"
 
 namespace ips::survey {

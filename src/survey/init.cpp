@@ -9,7 +9,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "survey/views.h"
 
 namespace ips::survey::detail {

@@ -9,8 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/error.h"
-#include "ips/survey.h"
+#include "ips/core/error.h"
+#include "ips/survey/survey.h"
 
 namespace ips::survey {
 namespace {

@@ -1,4 +1,4 @@
-// The `ips record` session files (format: include/ips/survey.h) and refs.yaml.
+// The `ips record` session files (format: include/ips/survey/survey.h) and refs.yaml.
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -7,8 +7,8 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "ips/error.h"
-#include "ips/survey.h"
+#include "ips/core/error.h"
+#include "ips/survey/survey.h"
 
 namespace ips::survey {
 namespace {

@@ -10,7 +10,7 @@
 #include <map>
 #include <numeric>
 
-#include "ips/survey.h"
+#include "ips/survey/survey.h"
 
 namespace ips::survey {
 namespace {

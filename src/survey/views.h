@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-#include "ips/survey.h"
+#include "ips/survey/survey.h"
 
 namespace ips::survey::detail {
 

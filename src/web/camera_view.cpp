@@ -11,8 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/detector.h"
-#include "ips/web.h"
+#include "ips/detect/detector.h"
+#include "ips/web/web.h"
 
 namespace ips {
 

@@ -2,9 +2,9 @@
 // the map. Cameras whose mapper has no pose (rt, pr, ann, ...) have none.
 #include <cmath>
 
-#include "ips/camera_model.h"
-#include "ips/mapper.h"
-#include "ips/web.h"
+#include "ips/geometry/camera_model.h"
+#include "ips/mapping/mapper.h"
+#include "ips/web/web.h"
 
 namespace ips {
 

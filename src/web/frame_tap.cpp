@@ -1,6 +1,6 @@
 #include <chrono>
 
-#include "ips/web.h"
+#include "ips/web/web.h"
 
 namespace ips {
 

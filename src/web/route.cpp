@@ -2,7 +2,7 @@
 // the malformed-request test) apart from the server.
 #include <string_view>
 
-#include "ips/web.h"
+#include "ips/web/web.h"
 
 namespace ips {
 

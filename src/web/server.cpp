@@ -15,9 +15,9 @@
 
 #include <spdlog/spdlog.h>
 
-#include "ips/clock.h"
-#include "ips/error.h"
-#include "ips/web.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
+#include "ips/web/web.h"
 #include "stream_hub.h"
 
 namespace ips {

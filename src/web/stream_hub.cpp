@@ -7,7 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ips/clock.h"
+#include "ips/core/clock.h"
 
 namespace ips::web {
 

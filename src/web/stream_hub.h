@@ -16,7 +16,7 @@
 #include <string>
 #include <thread>
 
-#include "ips/packet_codec.h"
+#include "ips/output/packet_codec.h"
 
 namespace ips::web {
 

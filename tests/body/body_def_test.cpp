@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
-#include "ips/body.h"
-#include "ips/error.h"
+#include "ips/body/body.h"
+#include "ips/core/error.h"
 
 namespace {
 

@@ -16,11 +16,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/body_estimate.h"
-#include "ips/detector.h"
-#include "ips/jpeg_decoder.h"
-#include "ips/mapper.h"
-#include "ips/marker_geometry.h"
+#include "ips/body/body_estimate.h"
+#include "ips/detect/detector.h"
+#include "ips/capture/jpeg_decoder.h"
+#include "ips/mapping/mapper.h"
+#include "ips/geometry/marker_geometry.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 #include "../daemon/plane_model.h"

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "body_lab.h"
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace {
 

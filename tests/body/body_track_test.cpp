@@ -1,4 +1,4 @@
-// The daemon's asynchronous body fusion (ips/body_track.h) on hand-made views: one pose per
+// The daemon's asynchronous body fusion (ips/body/body_track.h) on hand-made views: one pose per
 // frame at the frame's time, other cameras' older views moved forward by the body's velocity,
 // and a body's stream never going back in time.
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/body_track.h"
+#include "ips/body/body_track.h"
 
 namespace ips {
 namespace {

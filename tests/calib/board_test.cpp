@@ -9,7 +9,7 @@
 #include <opencv2/aruco/charuco.hpp>
 
 #include "ips/calib/board.h"
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 using ips::calib::Board;
 using ips::calib::BoardSpec;

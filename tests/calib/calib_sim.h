@@ -8,7 +8,7 @@
 
 #include "ips/calib/board.h"
 #include "ips/calib/charuco.h"
-#include "ips/jpeg_decoder.h"
+#include "ips/capture/jpeg_decoder.h"
 #include "ips/sim/board_renderer.h"
 #include "ips/sim/scene.h"
 

@@ -13,7 +13,7 @@
 
 #include "calib_sim.h"
 #include "ips/calib/calibrate.h"
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace {
 

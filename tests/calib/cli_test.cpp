@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "ips/camera_model.h"
+#include "ips/geometry/camera_model.h"
 #include "command.h"
 
 namespace fs = std::filesystem;

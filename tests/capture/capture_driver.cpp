@@ -32,9 +32,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "emu_control.h"
-#include "ips/clock.h"
-#include "ips/error.h"
-#include "ips/v4l2_source.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
+#include "ips/capture/v4l2_source.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 
 #include "emu_control.h"
 #include "emu_harness.h"
-#include "ips/calib_data.h"
+#include "ips/mapping/calib_data.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 #include "published_scene.h"

@@ -1,4 +1,4 @@
-#include "ips/file_source.h"
+#include "ips/capture/file_source.h"
 
 #include <iterator>
 
@@ -11,9 +11,9 @@
 #include <opencv2/videoio.hpp>
 
 #include "emu_harness.h"
-#include "ips/clock.h"
-#include "ips/error.h"
-#include "ips/jpeg_decoder.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
+#include "ips/capture/jpeg_decoder.h"
 
 namespace {
 

@@ -24,8 +24,8 @@
 #include "emu_harness.h"
 #include "loopback_udp.h"
 #include "published_scene.h"
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 

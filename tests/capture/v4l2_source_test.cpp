@@ -1,6 +1,6 @@
 // ips::V4L2Source against the emulated V4L2 device (tests/capture/v4l2_emulator.cpp), run in
 // a child process (tests/capture/capture_driver.cpp) with the emulator preloaded.
-#include "ips/v4l2_source.h"
+#include "ips/capture/v4l2_source.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 
 #include "emu_control.h"
 #include "emu_harness.h"
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace {
 

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/calib_data.h"
-#include "ips/collect.h"
-#include "ips/error.h"
+#include "ips/mapping/calib_data.h"
+#include "ips/collect/collect.h"
+#include "ips/core/error.h"
 
 namespace ips::collect {
 namespace {

@@ -17,8 +17,8 @@
 #include <gtest/gtest.h>
 
 #include "collect_session.h"
-#include "ips/calib_data.h"
-#include "ips/packet_codec.h"
+#include "ips/mapping/calib_data.h"
+#include "ips/output/packet_codec.h"
 #include "ips/sim/scene.h"
 #include "process_util.h"
 #include "published_scene.h"

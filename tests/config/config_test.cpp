@@ -1,11 +1,11 @@
-#include "ips/config.h"
+#include "ips/config/config.h"
 
 #include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "config_scratch.h"
 
 namespace ips {
@@ -37,11 +37,11 @@ TEST_F(ConfigTest, MinimalConfigGetsTheDocumentedDefaults) {
   EXPECT_EQ(cam.name, "red");
   EXPECT_EQ(cam.model, "red");
   EXPECT_EQ(cam.source, SourceKind::kV4l2);
-  EXPECT_EQ(cam.device, "/dev/video0");
-  EXPECT_EQ(cam.width, 1920);
-  EXPECT_EQ(cam.height, 1080);
-  EXPECT_EQ(cam.pixel_format, CaptureFormat::kMjpeg);
-  EXPECT_FALSE(cam.exposure_s.has_value());
+  EXPECT_EQ(cam.v4l2.device, "/dev/video0");
+  EXPECT_EQ(cam.v4l2.width, 1920);
+  EXPECT_EQ(cam.v4l2.height, 1080);
+  EXPECT_EQ(cam.v4l2.format, PixelFormat::kMjpeg);
+  EXPECT_FALSE(cam.v4l2.controls.exposure_s.has_value());
   EXPECT_DOUBLE_EQ(cam.fps, 30.0);
   EXPECT_FALSE(cam.required);
   EXPECT_EQ(cam.intrinsics, dir_ / "red.yaml");
@@ -174,13 +174,13 @@ watchdog: {stall_timeout: 3}
   ASSERT_EQ(c.cameras.size(), 2u);
   const auto& left = c.cameras[0];
   EXPECT_EQ(left.model, "red");
-  EXPECT_EQ(left.width, 1280);
-  EXPECT_EQ(left.pixel_format, CaptureFormat::kYuyv);
+  EXPECT_EQ(left.v4l2.width, 1280);
+  EXPECT_EQ(left.v4l2.format, PixelFormat::kYuyv);
   EXPECT_DOUBLE_EQ(left.fps, 15.0);
-  EXPECT_EQ(left.auto_exposure, false);
-  EXPECT_DOUBLE_EQ(left.exposure_s.value(), 0.004);
-  EXPECT_EQ(left.gain, 20);
-  EXPECT_EQ(left.power_line_hz, 50);
+  EXPECT_EQ(left.v4l2.controls.auto_exposure, false);
+  EXPECT_DOUBLE_EQ(left.v4l2.controls.exposure_s.value(), 0.004);
+  EXPECT_EQ(left.v4l2.controls.gain, 20);
+  EXPECT_EQ(left.v4l2.controls.power_line_hz, 50);
   EXPECT_TRUE(left.required);
   const auto& sim = c.cameras[1];
   EXPECT_EQ(sim.index, 1);

@@ -1,6 +1,6 @@
 // docs/configuration.md is the list of configuration keys: every key the parsers accept has a row
 // there, and every row names a key they accept. The accepted keys are recorded from the parsers
-// themselves (ips/accepted_keys.h) while they read a configuration that has every section, every
+// themselves (ips/core/accepted_keys.h) while they read a configuration that has every section, every
 // camera source, every output type and every kind of body.
 #include <fstream>
 #include <regex>
@@ -8,7 +8,7 @@
 #include <sstream>
 
 #include "config_scratch.h"
-#include "ips/accepted_keys.h"
+#include "ips/core/accepted_keys.h"
 
 namespace ips {
 namespace {

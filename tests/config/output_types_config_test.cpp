@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/config.h"
-#include "ips/error.h"
+#include "ips/config/config.h"
+#include "ips/core/error.h"
 #include "config_scratch.h"
 
 namespace ips {

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/config.h"
+#include "ips/config/config.h"
 #include "config_scratch.h"
 
 namespace ips {

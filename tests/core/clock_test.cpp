@@ -1,4 +1,4 @@
-#include "ips/clock.h"
+#include "ips/core/clock.h"
 
 #include <gtest/gtest.h>
 

@@ -14,8 +14,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
 #include "plane_model.h"
 #include "process_util.h"
 #include "published_scene.h"

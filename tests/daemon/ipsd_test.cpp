@@ -9,10 +9,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
-#include "ips/mapper.h"
-#include "ips/model_file.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
+#include "ips/mapping/mapper.h"
+#include "ips/mapping/model_file.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 #include "plane_model.h"

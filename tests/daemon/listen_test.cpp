@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/packet_codec.h"
-#include "ips/publisher.h"
+#include "ips/output/packet_codec.h"
+#include "ips/output/publisher.h"
 #include "process_util.h"
 
 namespace ips {

@@ -12,10 +12,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ips/clock.h"
-#include "ips/mavlink_frame.h"
-#include "ips/mavlink_pose.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/mavlink_frame.h"
+#include "ips/output/mavlink_pose.h"
+#include "ips/output/packet_codec.h"
 #include "ips/sim/scene.h"
 #include "mavlink_decoder.h"
 #include "plane_model.h"

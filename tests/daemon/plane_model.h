@@ -9,8 +9,8 @@
 #include <random>
 #include <vector>
 
-#include "ips/mapper.h"
-#include "ips/model_file.h"
+#include "ips/mapping/mapper.h"
+#include "ips/mapping/model_file.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 

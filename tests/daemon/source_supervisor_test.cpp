@@ -1,4 +1,4 @@
-#include "ips/source_supervisor.h"
+#include "ips/capture/source_supervisor.h"
 
 #include <deque>
 
@@ -6,7 +6,7 @@
 #include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

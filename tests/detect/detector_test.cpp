@@ -1,5 +1,5 @@
 // The detector + depth formula against the simulator's exact truth (the "done means").
-#include "ips/detector.h"
+#include "ips/detect/detector.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,9 +11,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/aruco.hpp>
 
-#include "ips/error.h"
-#include "ips/jpeg_decoder.h"
-#include "ips/marker_geometry.h"
+#include "ips/core/error.h"
+#include "ips/capture/jpeg_decoder.h"
+#include "ips/geometry/marker_geometry.h"
 #include "ips/sim/renderer.h"
 
 namespace {

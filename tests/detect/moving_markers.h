@@ -10,8 +10,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/jpeg_decoder.h"
-#include "ips/observation.h"
+#include "ips/capture/jpeg_decoder.h"
+#include "ips/core/observation.h"
 #include "ips/sim/renderer.h"
 
 namespace ips_test {

@@ -15,7 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/detector.h"
+#include "ips/detect/detector.h"
 
 namespace {
 

@@ -16,8 +16,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/aruco.hpp>
 
-#include "ips/detector.h"
-#include "ips/jpeg_decoder.h"
+#include "ips/detect/detector.h"
+#include "ips/capture/jpeg_decoder.h"
 #include "ips/sim/renderer.h"
 
 namespace {

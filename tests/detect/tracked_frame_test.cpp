@@ -3,7 +3,7 @@
 // only in the tracker's ROIs on tracked frames, give the same markers, corners (within
 // 0.05 px) and camera-frame positions as tracking off (every frame decoded whole and searched
 // in full), and the same as the simulator's truth.
-#include "ips/tracked_frame_detector.h"
+#include "ips/detect/tracked_frame_detector.h"
 
 #include <unistd.h>
 
@@ -14,8 +14,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/file_source.h"
-#include "ips/marker_geometry.h"
+#include "ips/capture/file_source.h"
+#include "ips/geometry/marker_geometry.h"
 #include "moving_markers.h"
 
 namespace {

@@ -1,7 +1,7 @@
 // Tracking between frames (#12) against the simulator's exact truth: a marker that appears is
 // acquired within the stated number of frames, a marker that jumps is re-acquired on the same
 // frame, and tracking gives the full search's markers and corners.
-#include "ips/tracker.h"
+#include "ips/detect/tracker.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,10 +12,10 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/detector.h"
-#include "ips/error.h"
-#include "ips/jpeg_decoder.h"
-#include "ips/jpeg_region_decoder.h"
+#include "ips/detect/detector.h"
+#include "ips/core/error.h"
+#include "ips/capture/jpeg_decoder.h"
+#include "ips/capture/jpeg_region_decoder.h"
 #include "ips/sim/renderer.h"
 #include "moving_markers.h"
 

@@ -8,7 +8,7 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/detector.h"
+#include "ips/detect/detector.h"
 #include "ips/sim/renderer.h"
 
 namespace {

@@ -2,7 +2,7 @@
 // one warning per crossing, the "back" hysteresis, per-camera separation, and readings.
 #include <gtest/gtest.h>
 
-#include "ips/fixed_markers.h"
+#include "ips/fusion/fixed_markers.h"
 
 namespace ips {
 namespace {

@@ -1,4 +1,4 @@
-#include "ips/fusion.h"
+#include "ips/fusion/fusion.h"
 
 #include <cmath>
 #include <numbers>
@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

@@ -1,6 +1,6 @@
-// Asynchronous fusion (ips/track_fusion.h) against hand-computed values and against the
+// Asynchronous fusion (ips/fusion/track_fusion.h) against hand-computed values and against the
 // truth of simulated motion, and the order guarantee under late / reordered frames.
-#include "ips/track_fusion.h"
+#include "ips/fusion/track_fusion.h"
 
 #include <algorithm>
 #include <cmath>

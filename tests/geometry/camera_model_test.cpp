@@ -1,4 +1,4 @@
-#include "ips/camera_model.h"
+#include "ips/geometry/camera_model.h"
 
 #include <cmath>
 #include <filesystem>
@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "load_error.h"
 
 namespace fs = std::filesystem;

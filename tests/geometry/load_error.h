@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/camera_model.h"
-#include "ips/error.h"
+#include "ips/geometry/camera_model.h"
+#include "ips/core/error.h"
 
 namespace ips::test {
 

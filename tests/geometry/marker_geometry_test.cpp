@@ -1,4 +1,4 @@
-#include "ips/marker_geometry.h"
+#include "ips/geometry/marker_geometry.h"
 
 #include <cmath>
 #include <numbers>

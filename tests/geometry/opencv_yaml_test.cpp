@@ -2,7 +2,7 @@
 // never with OpenCV's own YAML parser (which hangs or aborts on some malformed files). The truth
 // here is OpenCV itself: files written by cv::FileStorage, and the numbers cv::FileStorage reads
 // back from them (on files OpenCV wrote, its reader is safe).
-#include "ips/camera_model.h"
+#include "ips/geometry/camera_model.h"
 
 #include <chrono>
 #include <filesystem>
@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "load_error.h"
 
 namespace fs = std::filesystem;

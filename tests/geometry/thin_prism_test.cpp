@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 
-#include "ips/camera_model.h"
+#include "ips/geometry/camera_model.h"
 
 TEST(ThinPrism, ProjectMatchesOpenCVAndUndistortInverts) {
   const cv::Matx33d K(620.0, 0.0, 641.3, 0.0, 621.5, 358.7, 0.0, 0.0, 1.0);

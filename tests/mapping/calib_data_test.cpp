@@ -1,10 +1,10 @@
-#include "ips/calib_data.h"
+#include "ips/mapping/calib_data.h"
 
 #include <gtest/gtest.h>
 
 #include <sstream>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "test_util.h"
 
 namespace {

@@ -1,8 +1,8 @@
-#include "ips/cross_validation.h"
+#include "ips/mapping/cross_validation.h"
 
 #include <gtest/gtest.h>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 #include "test_util.h"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "ips/error_stats.h"
+#include "ips/mapping/error_stats.h"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "ips/mapper.h"
+#include "ips/mapping/mapper.h"
 
 #include <nlohmann/json.hpp>
 #include "test_util.h"

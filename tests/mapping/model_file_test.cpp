@@ -1,5 +1,5 @@
 // Model file: save -> load -> predict is bit-identical for every method; bad files are refused.
-#include "ips/model_file.h"
+#include "ips/mapping/model_file.h"
 
 #include <gtest/gtest.h>
 
@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "ips/calib_data.h"
-#include "ips/error.h"
+#include "ips/mapping/calib_data.h"
+#include "ips/core/error.h"
 #include "test_util.h"
 
 namespace {

@@ -5,9 +5,9 @@
 
 #include <Eigen/Geometry>
 
-#include "ips/cross_validation.h"
-#include "ips/error.h"
-#include "ips/mapper.h"
+#include "ips/mapping/cross_validation.h"
+#include "ips/core/error.h"
+#include "ips/mapping/mapper.h"
 
 #include <nlohmann/json.hpp>
 #include "test_util.h"

@@ -4,9 +4,9 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
-#include "ips/calib_data.h"
-#include "ips/error.h"
-#include "ips/mapper.h"
+#include "ips/mapping/calib_data.h"
+#include "ips/core/error.h"
+#include "ips/mapping/mapper.h"
 
 #include <nlohmann/json.hpp>
 #include "test_util.h"

@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ips/clock.h"
+#include "ips/core/clock.h"
 #include "plane_model.h"
 #include "process_util.h"
 #include "published_scene.h"

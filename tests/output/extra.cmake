@@ -1,4 +1,4 @@
-# include/ips/wire.h must stay plain C99 for robot firmware: compile a C user of it with
+# include/ips/output/wire.h must stay plain C99 for robot firmware: compile a C user of it with
 # every warning as an error (no C++ in sight).
 add_library(ips_wire_c_check OBJECT ${CMAKE_CURRENT_LIST_DIR}/wire_c_check.c)
 set_target_properties(ips_wire_c_check PROPERTIES C_STANDARD 99 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)

@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/mavlink_frame.h"
-#include "ips/mavlink_pose.h"
+#include "ips/output/mavlink_frame.h"
+#include "ips/output/mavlink_pose.h"
 
 namespace ips {
 namespace {

@@ -11,9 +11,9 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/mavlink_frame.h"
-#include "ips/mavlink_pose.h"
-#include "ips/output_sink.h"
+#include "ips/output/mavlink_frame.h"
+#include "ips/output/mavlink_pose.h"
+#include "ips/output/output_sink.h"
 #include "loopback_udp.h"
 #include "mavlink_decoder.h"
 

@@ -1,4 +1,4 @@
-#include "ips/packet_codec.h"
+#include "ips/output/packet_codec.h"
 
 #include <cmath>
 #include <random>
@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ips/error.h"
-#include "ips/wire.h"
+#include "ips/core/error.h"
+#include "ips/output/wire.h"
 
 namespace ips {
 namespace {

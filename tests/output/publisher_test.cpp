@@ -1,4 +1,4 @@
-#include "ips/publisher.h"
+#include "ips/output/publisher.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {

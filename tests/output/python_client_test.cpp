@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ips/packet_codec.h"
+#include "ips/output/packet_codec.h"
 
 namespace ips {
 namespace {

@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "bodies_lab_scene.h"
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
 #include "ips/sim/scene.h"
 #include "plane_model.h"
 #include "process_util.h"

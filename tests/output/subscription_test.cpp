@@ -12,10 +12,10 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/clock.h"
-#include "ips/error.h"
-#include "ips/output_sink.h"
-#include "ips/subscription.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
+#include "ips/output/output_sink.h"
+#include "ips/output/subscription.h"
 
 namespace ips {
 namespace {

@@ -1,6 +1,6 @@
-/* Compiled as strict C99 by tests/output/extra.cmake: proves include/ips/wire.h is plain C
+/* Compiled as strict C99 by tests/output/extra.cmake: proves include/ips/output/wire.h is plain C
  * that robot firmware can include, warning-free. */
-#include "ips/wire.h"
+#include "ips/output/wire.h"
 
 int ips_wire_c_check(const uint8_t* buf, size_t len);
 int ips_wire_c_check(const uint8_t* buf, size_t len) {

@@ -1,4 +1,4 @@
-// Protocol version 2 (rigid bodies, include/ips/wire.h): the encoder writes the bytes the
+// Protocol version 2 (rigid bodies, include/ips/output/wire.h): the encoder writes the bytes the
 // layout documents (checked against bytes written out by hand), the C helpers and the C++
 // decoder read them alike, and receivers refuse versions they do not read with a clear message.
 #include <cstring>
@@ -6,9 +6,9 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/error.h"
-#include "ips/packet_codec.h"
-#include "ips/wire.h"
+#include "ips/core/error.h"
+#include "ips/output/packet_codec.h"
+#include "ips/output/wire.h"
 
 namespace ips {
 namespace {

@@ -21,8 +21,8 @@
 #include <nlohmann/json.hpp>
 
 #include "../daemon/process_util.h"
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
 
 namespace {
 

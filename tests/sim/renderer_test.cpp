@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/error.h"
-#include "ips/jpeg_decoder.h"
+#include "ips/core/error.h"
+#include "ips/capture/jpeg_decoder.h"
 
 namespace {
 

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
-#include "ips/error.h"
+#include "ips/core/error.h"
 
 namespace fs = std::filesystem;
 

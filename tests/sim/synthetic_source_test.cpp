@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/clock.h"
-#include "ips/detector.h"
-#include "ips/error.h"
+#include "ips/core/clock.h"
+#include "ips/detect/detector.h"
+#include "ips/core/error.h"
 
 namespace {
 

@@ -15,8 +15,8 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
-#include "ips/calib_data.h"
-#include "ips/model_file.h"
+#include "ips/mapping/calib_data.h"
+#include "ips/mapping/model_file.h"
 #include "ips/sim/scene.h"
 #include "process_util.h"
 #include "survey_lab.h"

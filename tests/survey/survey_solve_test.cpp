@@ -10,10 +10,10 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
-#include "ips/error.h"
-#include "ips/model_file.h"
+#include "ips/core/error.h"
+#include "ips/mapping/model_file.h"
 #include "ips/sim/scene.h"
-#include "ips/survey.h"
+#include "ips/survey/survey.h"
 #include "process_util.h"
 #include "survey_lab.h"
 

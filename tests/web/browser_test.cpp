@@ -21,8 +21,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "http_client.h"
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
 #include "ips/sim/scene.h"
 #include "../daemon/bodies_lab_scene.h"
 #include "../daemon/plane_model.h"

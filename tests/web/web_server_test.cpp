@@ -14,10 +14,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "http_client.h"
-#include "ips/clock.h"
-#include "ips/config.h"
-#include "ips/error.h"
-#include "ips/web.h"
+#include "ips/core/clock.h"
+#include "ips/config/config.h"
+#include "ips/core/error.h"
+#include "ips/web/web.h"
 
 namespace ips {
 namespace {

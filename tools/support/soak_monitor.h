@@ -20,8 +20,8 @@
 #include <thread>
 #include <vector>
 
-#include "ips/clock.h"
-#include "ips/packet_codec.h"
+#include "ips/core/clock.h"
+#include "ips/output/packet_codec.h"
 #include "loopback_udp.h"
 
 namespace ips::soak {

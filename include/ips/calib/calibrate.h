@@ -13,7 +13,7 @@
 
 #include "ips/calib/board.h"
 #include "ips/calib/charuco.h"
-#include "ips/camera_model.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips::calib {
 

@@ -12,7 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "ips/calib/board.h"
-#include "ips/observation.h"
+#include "ips/core/observation.h"
 #include "ips/sim/renderer.h"
 
 namespace ips::sim {

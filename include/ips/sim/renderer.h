@@ -18,7 +18,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "ips/observation.h"
+#include "ips/core/observation.h"
 #include "ips/sim/scene.h"
 
 namespace ips::sim {

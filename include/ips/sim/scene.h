@@ -13,8 +13,8 @@
 
 #include <Eigen/Core>
 
-#include "ips/body.h"
-#include "ips/camera_model.h"
+#include "ips/body/body.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips::sim {
 

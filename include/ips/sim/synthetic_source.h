@@ -35,8 +35,8 @@
 #include <string>
 #include <vector>
 
-#include "ips/frame_source.h"
-#include "ips/jpeg_decoder.h"
+#include "ips/capture/frame_source.h"
+#include "ips/capture/jpeg_decoder.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 

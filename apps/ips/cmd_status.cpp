@@ -1,0 +1,117 @@
+// `ips status`: ask a running ipsd for its status over its unix socket (status.socket in the
+// daemon's configuration) and print it, per camera.
+#include <grp.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/fmt/fmt.h>
+
+#include "command.h"
+#include "ips/core/error.h"
+
+namespace cmd_status {  // named, not anonymous: unique in a unity build
+
+struct StatusOptions {
+  std::string socket = "/run/ipsd/status.sock";
+  bool json = false;
+};
+
+/// What to do about a failed connect, for the error message.
+std::string why_not_connected(const std::string& path, int err) {
+  if (err != EACCES) return " (is ipsd running, with status.socket set?)";
+  // The daemon makes its socket 0660 for its group (ipsd under systemd): name that group.
+  std::string name = "ipsd";
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0)
+    if (const struct group* g = ::getgrgid(st.st_gid)) name = g->gr_name;
+  return " (the status socket is for its owner and group " + name + ": add yourself with `sudo usermod -aG " + name +
+         " $USER` and log in again, or run ips status with sudo)";
+}
+
+std::string fetch(const std::string& path) {
+  sockaddr_un addr{};
+  if (path.size() >= sizeof addr.sun_path) throw ips::InputError("--socket: path too long: " + path);
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
+  timeval tv{2, 0};  // a daemon that does not answer within 2 s is reported, not waited for
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    const int err = errno;
+    ::close(fd);
+    throw std::runtime_error("cannot connect to " + path + ": " + std::strerror(err) + why_not_connected(path, err));
+  }
+  std::string text;
+  char buf[4096];
+  ssize_t n;
+  while ((n = ::read(fd, buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(n));
+  ::close(fd);
+  return text;
+}
+
+int run_status(const StatusOptions& o) {
+  const std::string text = fetch(o.socket);
+  const auto j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || j.value("type", "") != "ipsd.status")
+    throw std::runtime_error(o.socket + ": the answer is not an ipsd status document");
+  if (o.json) {
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  std::printf("ipsd %s, pid %ld, config %s, fusion %s: %.1f updates/s, latency %.1f ms, %llu updates\n",
+              j.value("version", "?").c_str(), j.value("pid", 0L), j.value("config", "?").c_str(),
+              j.value("fusion_method", "?").c_str(), j.value("updates_per_s", 0.0), j.value("latency_ms", 0.0),
+              static_cast<unsigned long long>(j.value("updates", 0ULL)));
+  // Percentiles over the daemon's last status interval (null = no samples, or an older daemon).
+  auto ms = [&j](const char* key, const char* p) {
+    const auto& v = j.value(key, nlohmann::json::object());
+    return v.contains(p) && v[p].is_number() ? fmt::format("{:.1f}", v[p].get<double>()) : std::string("-");
+  };
+  std::printf("  latency: processing (delivered -> sendto) p50 %s p99 %s ms, capture (capture -> sendto) p50 %s p99 %s ms\n",
+              ms("processing_latency_ms", "p50").c_str(), ms("processing_latency_ms", "p99").c_str(),
+              ms("capture_latency_ms", "p50").c_str(), ms("capture_latency_ms", "p99").c_str());
+  for (const auto& c : j.value("cameras", nlohmann::json::array())) {
+    std::printf("  %-10s %-5s %5.1f fps  detect %5.1f ms  %4.1f markers  drops %llu  corrupt %llu  errors %llu  %s\n",
+                c.value("name", "?").c_str(), c.value("state", "?").c_str(), c.value("fps", 0.0),
+                c.value("detect_ms", 0.0), c.value("markers", 0.0),
+                static_cast<unsigned long long>(c.value("drops", 0ULL)),
+                static_cast<unsigned long long>(c.value("corrupt", 0ULL)),
+                static_cast<unsigned long long>(c.value("errors", 0ULL)), c.value("source", "").c_str());
+    const std::string err = c.value("last_error", "");
+    if (c.value("state", "") != "open" && !err.empty()) std::printf("             last error: %s\n", err.c_str());
+    // Fixed reference markers as this camera alone maps them (a bumped camera shows here).
+    for (const auto& f : c.value("fixed_markers", nlohmann::json::array()))
+      std::printf("             fixed marker %d: %.1f cm from its surveyed position%s%s\n", f.value("id", -1),
+                  100 * f.value("error_m", 0.0), f.value("seen", false) ? "" : " (not seen in the last second)",
+                  f.value("moved", false) ? "  MAY HAVE MOVED" : "");
+  }
+  for (const auto& out : j.value("outputs", nlohmann::json::array())) {
+    std::printf("  output %s: %llu datagrams, %llu send errors", out.value("output", "?").c_str(),
+                static_cast<unsigned long long>(out.value("datagrams", 0ULL)),
+                static_cast<unsigned long long>(out.value("send_errors", 0ULL)));
+    // Type-specific counters (subscriptions: subscribers, refusals by reason, ...).
+    for (const auto& [name, value] : out.items())
+      if (value.is_number_unsigned() && name != "datagrams" && name != "send_errors" && name != "bytes")
+        std::printf(", %s %llu", name.c_str(), static_cast<unsigned long long>(value.get<std::uint64_t>()));
+    std::printf("\n");
+  }
+  return 0;
+}
+
+IPS_REGISTER_COMMAND("status", "Show a running ipsd's per-camera status (reads its status.socket)",
+                     [](CLI::App& sub) -> std::function<int()> {
+                       auto o = std::make_shared<StatusOptions>();
+                       sub.add_option("--socket", o->socket, "the daemon's status.socket")->capture_default_str();
+                       sub.add_flag("--json", o->json, "print the daemon's JSON document as is");
+                       return [o] { return run_status(*o); };
+                     });
+
+}  // namespace cmd_status

@@ -1,0 +1,179 @@
+#include "camera_worker.h"
+
+#include <pthread.h>
+
+#include <cmath>
+
+#include <spdlog/spdlog.h>
+
+#include "ips/core/clock.h"
+#include "ips/detect/detector.h"
+#include "ips/geometry/marker_geometry.h"
+
+namespace ipsd {
+
+namespace {
+// How long one read may block: bounds the time to notice a stop request (SIGTERM -> exit
+// within 2 s) and the heartbeat period of a camera that delivers nothing.
+constexpr std::chrono::milliseconds kReadTimeout{100};
+// At most this many queued frames are skipped per iteration to reach the newest one
+// (a source that is always ready, such as an unpaced file, must not starve the detector).
+constexpr int kMaxSkip = 8;
+}  // namespace
+
+CameraWorker::CameraWorker(const ips::CameraConfig& config, ips::SourceFactory factory, RuntimeHolder& runtime,
+                           ObservationQueue& queue, CameraStats& stats)
+    : config_(config), supervisor_(config.name, std::move(factory)), runtime_(runtime), queue_(queue), stats_(stats) {
+  // MJPEG frames arrive undecoded: process() decodes only the regions the tracker searches
+  // (and a frame skipped to stay on the newest one is never decoded at all).
+  supervisor_.set_defer_decode(true);
+}
+
+CameraWorker::~CameraWorker() {
+  request_stop();
+  join();
+}
+
+bool CameraWorker::open_first() {
+  const bool ok = supervisor_.open();
+  stats_.state = static_cast<int>(ok ? CameraState::kOpen : CameraState::kDown);
+  stats_.failures = supervisor_.failures();
+  std::lock_guard lock(stats_.error_mutex);
+  stats_.last_error = supervisor_.last_error();
+  stats_.source = supervisor_.describe();
+  return ok;
+}
+
+void CameraWorker::start() {
+  stats_.heartbeat_ns = ips::monotonic_ns();
+  thread_ = std::thread([this] { run(); });
+}
+
+void CameraWorker::join() {
+  if (thread_.joinable()) thread_.join();
+}
+
+void CameraWorker::run() {
+  const std::string thread_name = ("cam:" + config_.name).substr(0, 15);  // visible in top -H
+  pthread_setname_np(pthread_self(), thread_name.c_str());
+  std::uint64_t last_sequence = 0;
+  bool have_sequence = false;
+  std::uint64_t reported_failures = supervisor_.failures();
+  ips::Frame frame, newer;
+  while (!stop_) {
+    stats_.heartbeat_ns = ips::monotonic_ns();
+    auto status = supervisor_.read(frame, kReadTimeout);
+    if (supervisor_.failures() != reported_failures) {
+      reported_failures = supervisor_.failures();
+      stats_.failures = reported_failures;
+      have_sequence = false;  // a reopened source restarts its counter
+      if (detector_) detector_->reset();  // and may show anything: search in full
+      std::lock_guard lock(stats_.error_mutex);
+      stats_.last_error = supervisor_.last_error();
+    }
+    stats_.state = static_cast<int>(supervisor_.state() == ips::SourceSupervisor::State::kOpen ? CameraState::kOpen
+                                                                                                : CameraState::kDown);
+    if (status == ips::FrameSource::ReadStatus::kCorrupt) {
+      ++stats_.corrupt;
+      continue;
+    }
+    if (status != ips::FrameSource::ReadStatus::kFrame) continue;
+    if (frame.t_delivered_ns == 0) frame.t_delivered_ns = ips::monotonic_ns();
+    // Newest frame only: while the frame in hand is more than 1.5 frame periods old (a backlog
+    // in the driver's queue, or a simulated camera behind schedule), take the next one that
+    // is already waiting, counting what is skipped. A fresh frame is never read past: for a
+    // source that produces frames on demand that would cost a frame per skip.
+    const auto stale_ns = static_cast<std::int64_t>(1.5e9 / config_.fps);
+    for (int i = 0; i < kMaxSkip && ips::monotonic_ns() - frame.t_mono_ns > stale_ns; ++i) {
+      const auto more = supervisor_.read(newer, std::chrono::milliseconds(0));
+      if (more == ips::FrameSource::ReadStatus::kCorrupt) {
+        ++stats_.corrupt;
+        continue;
+      }
+      if (more != ips::FrameSource::ReadStatus::kFrame) break;
+      if (newer.t_delivered_ns == 0) newer.t_delivered_ns = ips::monotonic_ns();
+      std::swap(frame, newer);
+    }
+    if (have_sequence && frame.sequence > last_sequence + 1) stats_.drops += frame.sequence - last_sequence - 1;
+    have_sequence = true;
+    last_sequence = frame.sequence;
+    process(frame);
+  }
+  stats_.state = static_cast<int>(CameraState::kDown);
+}
+
+void CameraWorker::process(ips::Frame& frame) {
+  const std::shared_ptr<const Runtime> rt = runtime_.get();
+  const int index = config_.index;
+  // First frame, or a reload changed detection or tracking. The camera index as the tracker's
+  // phase: the cameras' full-frame searches fall on different frames.
+  if (!detector_ || detector_->detection() != rt->config.detection || detector_->tracking() != rt->config.tracking)
+    detector_ = std::make_unique<ips::TrackedFrameDetector>(rt->config.detection, rt->config.tracking, index);
+  const ips::CameraModel& intrinsics = rt->intrinsics[static_cast<std::size_t>(index)];
+  const std::int64_t t0 = ips::monotonic_ns();
+  // The web view's camera image needs the whole frame: decoded whole only while a page asks.
+  const bool watched = tap_ && tap_->wanted();
+  std::vector<ips::MarkerDetection> detections;
+  if (!detector_->detect(frame, &intrinsics, watched, detections)) {
+    if (stats_.corrupt++ == 0) spdlog::warn("{}: {}; such frames are skipped and counted", config_.name, detector_->error());
+    return;
+  }
+  if (watched) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
+  CameraBatch batch;
+  batch.camera_index = index;
+  // cameras[].timestamp_offset: the source's stamp -> mid exposure (docs/daemon.md, "Time").
+  const auto offset = static_cast<std::int64_t>(std::llround(config_.timestamp_offset_s * 1e9));
+  frame.t_mono_ns += offset;
+  frame.t_real_ns += offset;
+  batch.t_mono_ns = frame.t_mono_ns;
+  batch.t_real_ns = frame.t_real_ns;
+  batch.t_delivered_ns = frame.t_delivered_ns;
+  const ips::Mapper& mapper = *rt->mappers[static_cast<std::size_t>(index)];
+  for (const auto& d : detections) {
+    double height = rt->config.markers.height_of(d.id);
+    const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt->sizes.length_of(d.id));
+    if (rt->bodies && rt->bodies->body_of(d.id) >= 0) {
+      // A body's marker: its full pose -> a view of the body (docs/bodies.md); never also a
+      // plain marker. Rejected views (ambiguous, no face fits) are counted.
+      ips::BodyObservation view;
+      std::string why;
+      if (rt->bodies->observe(cam, mapper, index, frame.t_mono_ns, frame.t_real_ns, view, &why)) {
+        batch.bodies.push_back(std::move(view));
+      } else if (stats_.body_rejected++ == 0) {
+        spdlog::info("{}: marker {} of a body gave no body view ({}); such views are skipped and counted",
+                     config_.name, d.id, why);
+      }
+      continue;
+    }
+    Eigen::Vector3d ray_origin, ray_direction;
+    const bool ray_only = mapper.needs_height() && std::isnan(height) &&
+                          mapper.world_ray(cam.p_cam, ray_origin, ray_direction);
+    if (ray_only) {
+      // Height unknown: the depth-formula point on the ray stands in (z from the marker size);
+      // fusion triangulates it with other cameras' rays.
+      height = (ray_origin + cam.p_cam.norm() * ray_direction).z();
+    }
+    if (mapper.needs_height() && std::isnan(height)) {
+      if (stats_.no_height++ == 0)
+        spdlog::warn("{}: marker {} has no known height and the '{}' mapper needs one (markers.ids.{}.height); "
+                     "such markers are dropped and counted",
+                     config_.name, d.id, mapper.method(), d.id);
+      continue;
+    }
+    ips::WorldObservation w = ips::to_world(cam, mapper, height, index, frame.t_mono_ns, frame.t_real_ns);
+    if (!w.p_world.allFinite() || !std::isfinite(w.yaw)) continue;  // degenerate corners
+    if (ray_only) {
+      w.height_known = false;
+      w.has_ray = true;
+      w.ray_origin = ray_origin;
+      w.ray_direction = ray_direction;
+    }
+    batch.observations.push_back(w);
+  }
+  stats_.detect_ns += static_cast<std::uint64_t>(ips::monotonic_ns() - t0);
+  stats_.markers += batch.observations.size() + batch.bodies.size();
+  ++stats_.frames;
+  queue_.push(std::move(batch));
+}
+
+}  // namespace ipsd

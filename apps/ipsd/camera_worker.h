@@ -1,0 +1,50 @@
+// One thread per camera: capture -> detect -> camera coordinates -> that camera's mapper,
+// always on the newest frame; results go to the fusion thread's queue.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <thread>
+
+#include "ips/detect/detector.h"
+#include "ips/capture/source_supervisor.h"
+#include "ips/web/web.h"
+#include "ips/detect/tracked_frame_detector.h"
+#include "pipeline.h"
+
+namespace ipsd {
+
+class CameraWorker {
+ public:
+  CameraWorker(const ips::CameraConfig& config, ips::SourceFactory factory, RuntimeHolder& runtime,
+               ObservationQueue& queue, CameraStats& stats);
+  ~CameraWorker();
+
+  /// First open attempt, before the thread starts (start-up checks `required`).
+  bool open_first();
+  const ips::SourceSupervisor& supervisor() const { return supervisor_; }
+
+  /// The web view's hand-over point (before start(); none without a web view).
+  void set_tap(std::shared_ptr<ips::FrameTap> tap) { tap_ = std::move(tap); }
+  void start();
+  void request_stop() { stop_ = true; }
+  void join();
+
+ private:
+  void run();
+  void process(ips::Frame& frame);
+
+  ips::CameraConfig config_;
+  ips::SourceSupervisor supervisor_;
+  RuntimeHolder& runtime_;
+  ObservationQueue& queue_;
+  CameraStats& stats_;
+  std::shared_ptr<ips::FrameTap> tap_;  // web view: a frame is copied only when a page asked
+  // Decode (only what tracking needs: the source hands JPEG frames over undecoded) + detect;
+  // used by the camera thread only, rebuilt when a reload changes detection or tracking.
+  std::unique_ptr<ips::TrackedFrameDetector> detector_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace ipsd

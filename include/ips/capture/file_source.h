@@ -1,0 +1,72 @@
+// Frames from a video file (anything cv::VideoCapture reads) or a directory of images, for
+// replaying recordings through the daemon and for tests. Paced at a fixed rate and
+// time-stamped with the clock at read time (a file has no capture clock of its own).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/videoio.hpp>
+
+#include "ips/capture/frame_source.h"
+#include "ips/capture/jpeg_decoder.h"
+
+namespace ips {
+
+struct FileSourceOptions {
+  /// A video file, or a directory whose images (.png .jpg .jpeg .bmp .tif .tiff .pgm .ppm)
+  /// are played in file-name order.
+  std::string path;
+  /// Playback rate in frames per second: read() waits until the next frame is due.
+  /// 0 = no pacing (as fast as the caller reads).
+  double fps = 30.0;
+  /// true = start again at the end; false = read() returns kEnd after the last frame.
+  bool loop = true;
+  /// Replay (#12): a directory's files are read into memory when the source opens and each
+  /// read() only decodes one (JPEG files with libjpeg-turbo to greyscale, as a USB camera's
+  /// MJPEG frame is decoded; other formats with OpenCV): what a real camera costs the daemon,
+  /// without disk reads. Memory: the files' total size.
+  bool preload = false;
+
+  /// Throws ips::InputError naming the offending field.
+  void validate() const;
+
+  bool operator==(const FileSourceOptions&) const = default;
+};
+
+class FileSource : public FrameSource {
+ public:
+  explicit FileSource(FileSourceOptions options);
+
+  /// Throws ips::SourceError if the path is missing, unreadable, or holds no image.
+  void open() override;
+  /// kTimeout if the next frame is not due within `timeout`; kCorrupt for an unreadable
+  /// image in a directory (skipped); kEnd at the end when not looping.
+  ReadStatus read(Frame& out, std::chrono::milliseconds timeout) override;
+  void close() noexcept override;
+  std::string describe() const override;
+  /// Preloaded JPEG files are then handed over undecoded (Frame::jpeg); other formats and
+  /// videos are still decoded. True when preload is on.
+  bool defer_decode(bool on) override;
+
+ private:
+  bool read_image(Frame& out, bool& corrupt);
+
+  FileSourceOptions options_;
+  bool open_ = false;
+  bool is_directory_ = false;
+  std::vector<std::string> files_;
+  std::vector<std::vector<std::uint8_t>> preloaded_;  // files_' bytes (preload)
+  std::unique_ptr<JpegDecoder> jpeg_;
+  std::size_t next_file_ = 0;
+  cv::VideoCapture video_;
+  cv::Mat decoded_;
+  std::uint64_t sequence_ = 0;
+  std::int64_t next_due_ns_ = 0;  // CLOCK_MONOTONIC
+  bool defer_decode_ = false;
+};
+
+}  // namespace ips

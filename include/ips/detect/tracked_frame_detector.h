@@ -1,0 +1,61 @@
+// One camera's detection step on a frame as a source hands it over (issue #12): the tracker
+// says what to search (the whole image every `full_search_period` frames, else ROIs around
+// the predicted markers), and a frame that arrives undecoded (Frame::jpeg, a deferring source)
+// is decoded only as far as that search needs:
+//   - a tracked frame: only the ROIs' rows and columns (JpegRegionDecoder; pixels inside the
+//     ROIs equal a full decode's, the rest of `gray` is stale);
+//   - a full-search frame, a frame whose tracked marker was lost (the fallback), or a frame
+//     the caller wants whole (the web view's camera image): the whole image.
+// A frame that arrives decoded (Frame::gray) is searched as DetectionTracker::track does.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ips/geometry/camera_model.h"
+#include "ips/detect/detector.h"
+#include "ips/capture/frame_source.h"
+#include "ips/capture/jpeg_region_decoder.h"
+#include "ips/core/observation.h"
+#include "ips/detect/tracker.h"
+
+namespace ips {
+
+class TrackedFrameDetector {
+ public:
+  /// `phase`: the camera index (DetectionTracker). Throws ips::InputError for bad options.
+  TrackedFrameDetector(const DetectorOptions& detection, const TrackerOptions& tracking, int phase = 0);
+
+  /// Detects the markers of `frame` into `out`. `whole_image`: frame.gray must hold the whole
+  /// decoded image afterwards (otherwise, for an undecoded frame, only the searched regions of
+  /// frame.gray are valid). Returns false for a JPEG that cannot be decoded (error() says why;
+  /// `out` is empty and the tracks are kept for the next frame).
+  bool detect(Frame& frame, const CameraModel* camera, bool whole_image, std::vector<MarkerDetection>& out);
+
+  /// Forgets every track (the source was reopened): the next frame is a full search.
+  void reset() { tracker_.reset(); }
+
+  const DetectorOptions& detection() const { return detector_.options(); }
+  const TrackerOptions& tracking() const { return tracker_.options(); }
+  const DetectionTracker::Counters& tracker_counters() const { return tracker_.counters(); }
+  const std::string& error() const { return error_; }
+
+  struct DecodeCounters {
+    std::uint64_t whole = 0;      ///< undecoded frames decoded whole
+    std::uint64_t regions = 0;    ///< undecoded frames decoded only in their ROIs
+    std::uint64_t decode_ns = 0;  ///< time spent decoding (monotonic clock), ns
+  };
+  const DecodeCounters& decode_counters() const { return decode_; }
+
+ private:
+  bool decode(Frame& frame, const std::vector<cv::Rect>& rois);
+
+  Detector detector_;
+  DetectionTracker tracker_;
+  JpegRegionDecoder decoder_;
+  DecodeCounters decode_;
+  std::string error_;
+};
+
+}  // namespace ips

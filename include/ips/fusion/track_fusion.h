@@ -1,0 +1,103 @@
+// Asynchronous, time-aligned fusion: every camera frame produces output at once, for the
+// markers it saw, at that frame's capture time.
+//
+// Model of time. Each tracked object (today one marker id; later a rigid body fed the
+// observations of several markers) keeps, per camera, a short time-ordered history of that
+// camera's observations. When camera c's frame captured at T arrives, the object's state at T
+// is the per-instant combination (mean/area/gauss/median, fusion.h) of one estimate per camera
+// that saw it within `window_s` before T: camera c's own observation as is, every other
+// camera's latest observation at or before T moved forward to T by that camera's own velocity
+// (a least-squares line through its newest 3 frames within `velocity_span_s`; a camera without
+// two frames there is left out unless its observation is from T itself). Per-camera
+// velocities keep one camera's calibration bias out of another's motion.
+//
+// Order. Output for an object is produced only at a capture time >= the last time published
+// for it, so its published capture times never decrease, whatever order frames arrive in. A
+// frame that arrives late (its capture time is older than the object's last published time)
+// is merged into the history, so later outputs use it, but produces no record for that object
+// (counted as `late`). An observation older than `history_s` before the object's newest one is
+// dropped (counted as `too_old`).
+//
+// Not thread-safe: owned by the fusion thread.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ips/fusion/fusion.h"
+#include "ips/fusion/kalman.h"
+
+namespace ips {
+
+struct TrackFusionOptions : FusionTimeWindows {
+  /// An object without a known height seen by one camera: publish the depth-formula position
+  /// (true) or nothing (false). With >= 2 cameras' rays it is triangulated either way.
+  bool single_camera_depth = false;
+  bool kalman = false;          ///< constant-velocity Kalman filter per object on the output
+  KalmanOptions kalman_options;
+
+  bool operator==(const TrackFusionOptions&) const = default;
+};
+
+struct TrackFusionCounters {
+  std::uint64_t late = 0;     ///< observations merged but not published (older than the last output)
+  std::uint64_t too_old = 0;  ///< observations dropped: older than the history span
+};
+
+class TrackFusion {
+ public:
+  explicit TrackFusion(const TrackFusionOptions& options = {});
+
+  /// Feeds one camera frame's observations (all at batch.t_mono_ns) and appends to `out` the
+  /// fused state at that capture time of every object the frame saw and that may be published
+  /// (see "Order"), sorted by id. FusedMarker::t_mono_ns is the capture time of the frame.
+  /// `out` == nullptr only feeds the histories (fixed-rate output publishes by predict_all).
+  void add(const FrameObservations& batch, const FusionMethod& method, std::vector<FusedMarker>* out);
+
+  /// Takes over `previous`'s histories and last published times (a reload that changed the
+  /// options keeps the order guarantee; the Kalman filters restart).
+  void continue_after(const TrackFusion& previous) {
+    tracks_ = previous.tracks_;
+    latest_ns_ = previous.latest_ns_;
+  }
+
+  /// Fused state of every object seen within history_s before `t_mono_ns`, predicted to that
+  /// time (fixed-rate output; the wider window covers the capture latency), sorted by id. Objects whose last published time is later are
+  /// left out; the published time of the others becomes t_mono_ns. `t_real_ns` is stamped.
+  void predict_all(std::int64_t t_mono_ns, std::int64_t t_real_ns, const FusionMethod& method,
+                   std::vector<FusedMarker>& out);
+
+  const TrackFusionCounters& counters() const { return counters_; }
+  std::size_t tracks() const { return tracks_.size(); }
+  const TrackFusionOptions& options() const { return options_; }
+
+ private:
+  struct Track {
+    std::map<int, std::deque<WorldObservation>> by_camera;  // time-ordered per camera
+    std::int64_t newest_ns = 0;
+    std::int64_t published_ns = 0;
+    bool published = false;
+    /// Recent published (time, position): the object's velocity for moving rays, which carry
+    /// no position of their own to fit.
+    std::deque<std::pair<std::int64_t, Eigen::Vector3d>> path;
+  };
+  Eigen::Vector3d path_velocity(const Track& track) const;
+  /// Combines the cameras' estimates of `track` at time t (nullopt if none is recent enough).
+  std::optional<FusedMarker> state_at(int id, const Track& track, std::int64_t t_mono_ns, std::int64_t t_real_ns,
+                                      std::int64_t window_ns, const FusionMethod& method) const;
+  void finish(FusedMarker& f, Track& track);
+  void prune(Track& track) const;
+
+  TrackFusionOptions options_;
+  std::map<int, Track> tracks_;
+  std::int64_t latest_ns_ = 0;  ///< newest capture time fed
+  std::optional<MarkerTracker> kalman_;
+  TrackFusionCounters counters_;
+};
+
+}  // namespace ips
