@@ -9,6 +9,7 @@
 #include "ips/core/clock.h"
 #include "ips/detect/detector.h"
 #include "ips/geometry/marker_geometry.h"
+#include "ips/mapping/to_world.h"
 
 namespace ipsd {
 
@@ -128,52 +129,47 @@ void CameraWorker::process(ips::Frame& frame) {
   batch.t_mono_ns = frame.t_mono_ns;
   batch.t_real_ns = frame.t_real_ns;
   batch.t_delivered_ns = frame.t_delivered_ns;
-  const ips::Mapper& mapper = *rt->mappers[static_cast<std::size_t>(index)];
-  for (const auto& d : detections) {
-    double height = rt->config.markers.height_of(d.id);
-    const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt->sizes.length_of(d.id));
-    if (rt->bodies && rt->bodies->body_of(d.id) >= 0) {
-      // A body's marker: its full pose -> a view of the body (docs/bodies.md); never also a
-      // plain marker. Rejected views (ambiguous, no face fits) are counted.
-      ips::BodyObservation view;
-      std::string why;
-      if (rt->bodies->observe(cam, mapper, index, frame.t_mono_ns, frame.t_real_ns, view, &why)) {
-        batch.bodies.push_back(std::move(view));
-      } else if (stats_.body_rejected++ == 0) {
-        spdlog::info("{}: marker {} of a body gave no body view ({}); such views are skipped and counted",
-                     config_.name, d.id, why);
-      }
-      continue;
-    }
-    Eigen::Vector3d ray_origin, ray_direction;
-    const bool ray_only = mapper.needs_height() && std::isnan(height) &&
-                          mapper.world_ray(cam.p_cam, ray_origin, ray_direction);
-    if (ray_only) {
-      // Height unknown: the depth-formula point on the ray stands in (z from the marker size);
-      // fusion triangulates it with other cameras' rays.
-      height = (ray_origin + cam.p_cam.norm() * ray_direction).z();
-    }
-    if (mapper.needs_height() && std::isnan(height)) {
-      if (stats_.no_height++ == 0)
-        spdlog::warn("{}: marker {} has no known height and the '{}' mapper needs one (markers.ids.{}.height); "
-                     "such markers are dropped and counted",
-                     config_.name, d.id, mapper.method(), d.id);
-      continue;
-    }
-    ips::WorldObservation w = ips::to_world(cam, mapper, height, index, frame.t_mono_ns, frame.t_real_ns);
-    if (!w.p_world.allFinite() || !std::isfinite(w.yaw)) continue;  // degenerate corners
-    if (ray_only) {
-      w.height_known = false;
-      w.has_ray = true;
-      w.ray_origin = ray_origin;
-      w.ray_direction = ray_direction;
-    }
-    batch.observations.push_back(w);
-  }
+  for (const auto& d : detections) observe(*rt, d, frame, batch);
   stats_.detect_ns += static_cast<std::uint64_t>(ips::monotonic_ns() - t0);
   stats_.markers += batch.observations.size() + batch.bodies.size();
   ++stats_.frames;
   queue_.push(std::move(batch));
+}
+
+void CameraWorker::observe(const Runtime& rt, const ips::MarkerDetection& d, const ips::Frame& frame,
+                           CameraBatch& batch) {
+  const int index = config_.index;
+  const ips::CameraModel& intrinsics = rt.intrinsics[static_cast<std::size_t>(index)];
+  const ips::Mapper& mapper = *rt.mappers[static_cast<std::size_t>(index)];
+  const ips::CameraObservation cam = ips::locate_marker(d, intrinsics, rt.sizes.length_of(d.id));
+  if (rt.bodies && rt.bodies->body_of(d.id) >= 0) {
+    // A body's marker: its full pose -> a view of the body (docs/bodies.md); never also a
+    // plain marker. Rejected views (ambiguous, no face fits) are counted.
+    ips::BodyObservation view;
+    std::string why;
+    if (rt.bodies->observe(cam, mapper, index, frame.t_mono_ns, frame.t_real_ns, view, &why)) {
+      batch.bodies.push_back(std::move(view));
+    } else if (stats_.body_rejected++ == 0) {
+      spdlog::info("{}: marker {} of a body gave no body view ({}); such views are skipped and counted",
+                   config_.name, d.id, why);
+    }
+    return;
+  }
+  ips::WorldObservation w;
+  switch (ips::map_marker(cam, mapper, rt.config.markers.height_of(d.id), index, frame.t_mono_ns, frame.t_real_ns,
+                          w)) {
+    case ips::MappedMarker::kMapped:
+      batch.observations.push_back(w);
+      break;
+    case ips::MappedMarker::kNoHeight:
+      if (stats_.no_height++ == 0)
+        spdlog::warn("{}: marker {} has no known height and the '{}' mapper needs one (markers.ids.{}.height); "
+                     "such markers are dropped and counted",
+                     config_.name, d.id, mapper.method(), d.id);
+      break;
+    case ips::MappedMarker::kDegenerate:
+      break;  // degenerate corners
+  }
 }
 
 }  // namespace ipsd

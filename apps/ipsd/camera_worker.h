@@ -33,6 +33,8 @@ class CameraWorker {
  private:
   void run();
   void process(ips::Frame& frame);
+  /// One detected marker of `frame` into `batch`: a view of its body, or its world position.
+  void observe(const Runtime& rt, const ips::MarkerDetection& d, const ips::Frame& frame, CameraBatch& batch);
 
   ips::CameraConfig config_;
   ips::SourceSupervisor supervisor_;

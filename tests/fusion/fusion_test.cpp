@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "frame_grouper.h"
 #include "ips/core/error.h"
+#include "ips/mapping/to_world.h"
 
 namespace ips {
 namespace {

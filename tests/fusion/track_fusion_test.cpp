@@ -12,6 +12,8 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "frame_grouper.h"
+
 namespace ips {
 namespace {
 

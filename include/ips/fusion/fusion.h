@@ -71,14 +71,6 @@ FusedMarker fuse_marker(std::span<const WorldObservation> observations, const Fu
 /// each sighting.
 std::vector<FusedMarker> fuse(std::span<const WorldObservation> observations, const FusionMethod& method);
 
-/// Camera observation -> world observation through that camera's mapper. The world heading
-/// maps a second point, `heading_step` metres along the marker's x-axis in the camera frame
-/// (direction (cos yaw, sin yaw, 0)), through the same mapper and takes atan2 of the world
-/// difference: correct for every mapper, including non-rigid ones.
-WorldObservation to_world(const CameraObservation& obs, const Mapper& mapper, double known_height,
-                          int camera_index, std::int64_t t_mono_ns, std::int64_t t_real_ns,
-                          double heading_step = 0.05);
-
 /// The observations of one processed frame of one camera.
 struct FrameObservations {
   int camera_index = -1;
@@ -86,39 +78,6 @@ struct FrameObservations {
   std::int64_t t_real_ns = 0;
   std::int64_t t_delivered_ns = 0;  ///< when the source delivered the frame, CLOCK_MONOTONIC
   std::vector<WorldObservation> observations;
-};
-
-/// The daemon's fusion before asynchronous fusion (ips/fusion/track_fusion.h), kept as the baseline its
-/// tests compare against. Collects per-frame batches from the cameras into frame sets: batches whose capture times
-/// lie within `window_ns` of the set's first batch. A set is complete (returned by add or
-/// poll) when every expected camera has delivered, when a batch arrives that does not fit
-/// (too late or a camera delivering twice), or when `max_wait_ns` of wall time passed since
-/// the set opened. Not thread-safe: owned by the fusion thread.
-class FrameGrouper {
- public:
-  FrameGrouper(std::int64_t window_ns, std::int64_t max_wait_ns);
-
-  /// Cameras expected in every set (the ones currently delivering); a set completes as soon
-  /// as all of them are in. Empty = complete only by window/time-out.
-  void set_expected_cameras(std::set<int> cameras) { expected_ = std::move(cameras); }
-
-  /// Adds a batch at wall time `now_ns`; appends completed sets to `done`.
-  void add(FrameObservations batch, std::int64_t now_ns, std::vector<std::vector<FrameObservations>>& done);
-  /// Closes the open set if it waited longer than max_wait_ns.
-  void poll(std::int64_t now_ns, std::vector<std::vector<FrameObservations>>& done);
-  /// Wall time at which the open set times out, or -1 if none is open.
-  std::int64_t deadline_ns() const { return open_.empty() ? -1 : opened_at_ + max_wait_ns_; }
-
- private:
-  void close(std::vector<std::vector<FrameObservations>>& done);
-
-  std::int64_t window_ns_;
-  std::int64_t max_wait_ns_;
-  std::set<int> expected_;
-  std::vector<FrameObservations> open_;
-  std::set<int> open_cameras_;
-  std::int64_t first_capture_ns_ = 0;
-  std::int64_t opened_at_ = 0;
 };
 
 }  // namespace ips
