@@ -17,7 +17,7 @@
 //   reference detectMarkers with OpenCV's own threads (wall time), as a Python program that
 //              does not set the thread count runs it.
 // Times are per-thread CPU time, milliseconds, except where "wall" is said.
-// Tracked cases "1t" and "5t" (#12): 1 and 5 markers moving at up to 1 m/s, a sequence of
+// Tracked cases "1t" and "5t": 1 and 5 markers moving at up to 1 m/s, a sequence of
 // >= 100 frames at 30 fps; three pipelines on the same frames: "tracked" (DetectionTracker with
 // partial JPEG decodes of the ROIs; full decode + search on its full-search frames and
 // fallbacks), "ours-full" (the full search every frame) and the reference. Per-frame CPU.
@@ -86,7 +86,7 @@ struct Result {
   std::vector<std::vector<ips::MarkerDetection>> found_per_frame;  // tracked cases only
 };
 
-// Tracked against full search on the same frames (#12): markers found by one and not the
+// Tracked against full search on the same frames: markers found by one and not the
 // other, and the largest distance between their corners of the same marker.
 struct Agreement {
   int differing = 0;
@@ -193,7 +193,7 @@ Result reference(const Case& c, const ips::CameraModel& cam, double length, int 
 }
 
 
-// A tracked case (#12): `n_markers` 20 cm markers moving on the floor under the red camera at
+// A tracked case: `n_markers` 20 cm markers moving on the floor under the red camera at
 // up to 1 m/s, one lane each (0.34 m apart: they never overlap), bouncing at the ends, turning
 // at 0.5 rad/s; 30 fps. Frames are rendered once; ours is run twice on them (tracking with
 // partial decodes, and the full search every frame), the reference once.
@@ -271,7 +271,7 @@ Result ours_tracked(const Case& c, const ips::CameraModel& cam, double length, S
   return r;
 }
 
-// What the partial decode still pays for rows it skips (#12): a baseline JPEG without restart
+// What the partial decode still pays for rows it skips: a baseline JPEG without restart
 // markers must be Huffman-decoded up to the first row wanted. Per frame of `c`, median CPU ms
 // of JpegRegionDecoder on: the whole frame; the top MCU row only (nothing skipped, decoding
 // stops after it); the bottom MCU row only (every row above skipped: Huffman only, no IDCT).
@@ -377,7 +377,7 @@ int main(int argc, char** argv) {
       "markers", "pipeline", "decode med/p95 ms", "detect med/p95", "locate med/p95",
       "total med/p95");
   // The last case: 5 small markers (7.5 cm, 24-45 px) spread over the whole view, where the
-  // fisheye squeezes them most (issue #11: found at half scale and read at full resolution).
+  // fisheye squeezes them most (found at half scale and read at full resolution).
   for (const auto& [n_markers, length] : {std::pair{0, 0.20}, {1, 0.20}, {5, 0.20}, {5, 0.075}}) {
     const bool small = length < 0.1;
     char label[16];
@@ -423,7 +423,7 @@ int main(int argc, char** argv) {
         ours.decode_floor.pct(0.5), ours.decode_floor.pct(0.95), threads_available,
         ref.detect_threaded.pct(0.5), ref.detect_threaded.pct(0.95));
   }
-  // Tracked cases (#12): markers moving at up to 1 m/s, >= 100 frames at 30 fps.
+  // Tracked cases: markers moving at up to 1 m/s, >= 100 frames at 30 fps.
   const int tracked_frames = std::max(100, tracked_frames_arg);
   for (int n_markers : {1, 5}) {
     char label[16];

@@ -1,4 +1,4 @@
-// Small markers over a whole fisheye view (issue #11): recall, corner error and detection
+// Small markers over a whole fisheye view: recall, corner error and detection
 // time of ips::Detector with several option sets, beside OpenCV's default-parameter
 // detectMarkers, on the same rendered 1920x1080 frames (red camera of the scene, sensor
 // noise sigma 2, textured floor, vignetting, JPEG q90 4:2:0). Each frame holds 5 markers of

@@ -24,7 +24,7 @@ namespace {
 constexpr std::int64_t kSampleNs = 1'000'000'000;  // rates and STATUS= refresh period
 constexpr int kPollMs = 100;                        // main loop wake-up period
 // main.cpp keeps freed memory in glibc's arenas (no trimming: faulting image buffers in again on
-// every frame cost ~10 % CPU, #12). Frames are steady, but a fault is not: a camera reopened
+// every frame cost ~10 % CPU). Frames are steady, but a fault is not: a camera reopened
 // (unplug/replug) or a restarted camera thread set allocates in whatever arena its thread gets,
 // and each arena keeps its own high-water mark, so resident memory climbed in steps at faults
 // (the one-hour soak: 131 -> 213 MiB, live heap flat). Handing the free pages back once a minute

@@ -1,4 +1,4 @@
-// outputs[i] of type mavlink: MAVLink 2 pose messages per vehicle (README "MAVLink").
+// outputs[i] of type mavlink: MAVLink 2 pose messages per vehicle (docs/mavlink.md).
 #include <set>
 
 #include "output/parse_output.h"

@@ -1,4 +1,4 @@
-// outputs[i] with type ros2: ROS 2 messages over DDS (README "ROS 2"). The topic names are built
+// outputs[i] with type ros2: ROS 2 messages over DDS (docs/ros2.md). The topic names are built
 // from the prefix and the marker names, so both are checked here as ROS 2 names: a name ROS 2
 // would refuse must stop the daemon at start (exit 2), not vanish on the robots' side.
 #include <cstdlib>

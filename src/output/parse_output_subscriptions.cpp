@@ -1,5 +1,5 @@
 // outputs[i] of type subscriptions: robots subscribe for their own unicast stream
-// (README "Subscriptions", protocol in include/ips/output/wire.h).
+// (docs/subscriptions.md, protocol in include/ips/output/wire.h).
 #include "ips/output/subscription.h"
 #include "output/parse_output.h"
 

@@ -55,7 +55,7 @@ std::string camera_fingerprint(const std::vector<std::pair<std::string, CameraMo
 std::string session_header(const Session& s) {
   std::ostringstream o;
   o << "# ips record session: the detections of every camera, one file per camera\n"
-    << "# (lines: t_ns id x0 y0 x1 y1 x2 y2 x3 y3; README section \"survey\").\n"
+    << "# (lines: t_ns id x0 y0 x1 y1 x2 y2 x3 y3; docs/survey.md).\n"
     << kSessionFormat << " " << kSessionVersion << "\n"
     << "config " << s.config << "\n"
     << "fingerprint " << s.fingerprint << "\n"

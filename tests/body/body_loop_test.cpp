@@ -1,4 +1,4 @@
-// Done means of #15 on the simulated published lab (three fisheye cameras at ~2.15 m, JPEG q90,
+// The bodies' acceptance criteria on the simulated published lab (three fisheye cameras at ~2.15 m, JPEG q90,
 // sensor noise), through the real detector: robots driving one loop at 0.5 m/s (a 1.95 m circle
 // about the floor's centre, 0.5 m from its edges: 24.5 s), each a quarter of a loop apart,
 // sampled at N = 120 instants spread over the loop (IPS_BODY_LOOP_N overrides; each instant is

@@ -142,7 +142,7 @@ TEST(FileSource, MissingOrEmptyPathThrowsSourceError) {
 
 namespace {
 
-// Replay (#12): a preloaded directory plays the same frames as one read from disk (JPEG
+// Replay: a preloaded directory plays the same frames as one read from disk (JPEG
 // frames decoded as the daemon decodes MJPEG: libjpeg-turbo's luma, fast IDCT, within a few
 // grey levels of OpenCV's decode), keeps playing after the files are deleted (they are in memory), and a
 // damaged JPEG is a corrupt frame.

@@ -1,4 +1,4 @@
-// Test helpers for tracking (#12): markers moving on the floor of the published lab, rendered
+// Test helpers for tracking: markers moving on the floor of the published lab, rendered
 // by the simulator as a camera delivers them (JPEG q90 4:2:0), with their exact truth.
 #pragma once
 

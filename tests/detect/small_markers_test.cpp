@@ -1,4 +1,4 @@
-// Issue #11's last "done means": simulated 7.5 cm markers at the edge of the fisheye view
+// The last acceptance criterion of small-marker detection: simulated 7.5 cm markers at the edge of the fisheye view
 // (24-35 px) all found with the default settings. detector_test.cpp's random layout rarely
 // puts a marker where the default half-scale search used to lose it; this test puts every
 // marker there: the smallest images the red camera gives a 7.5 cm marker (the vignetted

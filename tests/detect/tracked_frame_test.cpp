@@ -1,4 +1,4 @@
-// The camera thread's detection step (#12) from a replayed source to marker positions: JPEG
+// The camera thread's detection step from a replayed source to marker positions: JPEG
 // frames handed over undecoded by a preloaded file source (FileSource::defer_decode), decoded
 // only in the tracker's ROIs on tracked frames, give the same markers, corners (within
 // 0.05 px) and camera-frame positions as tracking off (every frame decoded whole and searched

@@ -1,4 +1,4 @@
-// Tracking between frames (#12) against the simulator's exact truth: a marker that appears is
+// Tracking between frames against the simulator's exact truth: a marker that appears is
 // acquired within the stated number of frames, a marker that jumps is re-acquired on the same
 // frame, and tracking gives the full search's markers and corners.
 #include "ips/detect/tracker.h"

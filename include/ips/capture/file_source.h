@@ -25,7 +25,7 @@ struct FileSourceOptions {
   double fps = 30.0;
   /// true = start again at the end; false = read() returns kEnd after the last frame.
   bool loop = true;
-  /// Replay (#12): a directory's files are read into memory when the source opens and each
+  /// Replay: a directory's files are read into memory when the source opens and each
   /// read() only decodes one (JPEG files with libjpeg-turbo to greyscale, as a USB camera's
   /// MJPEG frame is decoded; other formats with OpenCV): what a real camera costs the daemon,
   /// without disk reads. Memory: the files' total size.

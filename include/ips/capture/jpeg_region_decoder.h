@@ -1,4 +1,4 @@
-// Partial MJPEG decode for tracking (#12): only the image rows and columns that regions of
+// Partial MJPEG decode for tracking: only the image rows and columns that regions of
 // interest need are decoded to pixels, with libjpeg-turbo's jpeg_crop_scanline (columns,
 // widened to whole MCUs) and jpeg_skip_scanlines (rows). What remains is the entropy
 // (Huffman) decoding of the rows above the lowest ROI: a baseline JPEG without restart

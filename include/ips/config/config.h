@@ -63,7 +63,7 @@ DaemonConfig parse_config(const std::string& yaml_text, const std::filesystem::p
 
 /// Cross-checks the configuration against a loaded model file: every camera's model exists;
 /// if a camera's mapper needs the marker height, markers.height or every listed id must give one
-/// (otherwise unknown-height markers are dropped and counted at run time, see README).
+/// (otherwise unknown-height markers are dropped and counted at run time, see docs/models.md).
 /// Throws ips::InputError naming the camera key.
 void check_models(const DaemonConfig& config, const ModelSet& models);
 

@@ -1,4 +1,4 @@
-// One camera's detection step on a frame as a source hands it over (issue #12): the tracker
+// One camera's detection step on a frame as a source hands it over: the tracker
 // says what to search (the whole image every `full_search_period` frames, else ROIs around
 // the predicted markers), and a frame that arrives undecoded (Frame::jpeg, a deferring source)
 // is decoded only as far as that search needs:

@@ -18,7 +18,7 @@ struct MarkerInfo {
   double edge_length = std::nan("");             ///< metres; NaN = markers.edge_length
   double height = std::nan("");                  ///< known world z, metres; NaN = markers.height
   /// A marker that stays put (a reference left on the floor): its surveyed world position,
-  /// metres. ipsd checks every camera's view of it (README "survey", bumped camera).
+  /// metres. ipsd checks every camera's view of it (docs/survey.md, a bumped camera).
   std::optional<std::array<double, 3>> fixed;
   bool publish = true;  ///< false: never sent to any output; default false for fixed markers
 };

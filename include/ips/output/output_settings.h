@@ -23,17 +23,17 @@ struct MavlinkVehicle {
   bool operator==(const MavlinkVehicle&) const = default;
 };
 
-/// type: mavlink (src/output/mavlink_sink.cpp; README "MAVLink").
+/// type: mavlink (src/output/mavlink_sink.cpp; docs/mavlink.md).
 struct MavlinkOutputSettings {
   std::vector<MavlinkVehicle> vehicles;  ///< required, non-empty
-  bool vision_position_estimate = true;  ///< messages: send VISION_POSITION_ESTIMATE (#102)
-  bool odometry = false;                 ///< messages: send ODOMETRY (#331)
+  bool vision_position_estimate = true;  ///< messages: send VISION_POSITION_ESTIMATE (message 102)
+  bool odometry = false;                 ///< messages: send ODOMETRY (message 331)
   int component_id = 197;                ///< MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY
   double rate_limit_hz = 30.0;           ///< at most this many pose messages per vehicle per second
   double yaw_offset_deg = 0.0;           ///< heading of the lab's x axis in the autopilot's frame (clockwise)
   double track_gap_s = std::nan("");     ///< unseen longer than this = new track; NaN = fusion.kalman.reset_after
   double yaw_stddev_deg = 5.0;           ///< attitude standard deviation reported in the covariance
-  bool heartbeat = true;                 ///< HEARTBEAT (#0) at 1 Hz per vehicle
+  bool heartbeat = true;                 ///< HEARTBEAT (message 0) at 1 Hz per vehicle
 
   bool operator==(const MavlinkOutputSettings&) const = default;
 };
@@ -48,7 +48,7 @@ struct SubscriptionSettings {
   bool operator==(const SubscriptionSettings&) const = default;
 };
 
-/// outputs[i] of type ros2: ROS 2 messages over DDS (README "ROS 2"; src/output/ros2_sink.h).
+/// outputs[i] of type ros2: ROS 2 messages over DDS (docs/ros2.md; src/output/ros2_sink.h).
 struct Ros2OutputSettings {
   int domain = 0;                  ///< DDS domain 0..232; key absent: $ROS_DOMAIN_ID if set, else 0
   std::string prefix = "ipsd";     ///< ROS namespace of the topics: /<prefix>/<name>/pose

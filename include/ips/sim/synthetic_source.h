@@ -69,7 +69,7 @@ class SyntheticSource : public FrameSource {
   ReadStatus read(Frame& out, std::chrono::milliseconds timeout) override;
   void close() noexcept override;
   std::string describe() const override;
-  /// JPEG frames (jpeg_quality > 0) are then handed over undecoded (Frame::jpeg, #12), as a
+  /// JPEG frames (jpeg_quality > 0) are then handed over undecoded (Frame::jpeg), as a
   /// real MJPEG camera's. True when the scene encodes JPEG.
   bool defer_decode(bool on) override;
 

@@ -6,7 +6,7 @@
 
 namespace ips {
 
-/// The web view (web.*; README "web"): off unless `listen` is set.
+/// The web view (web.*; docs/web.md): off unless `listen` is set.
 struct WebConfig {
   std::string listen;          ///< "host:port" as configured; "" = no web server
   std::string host;            ///< IPv4 address to bind (from `listen`; "localhost" = 127.0.0.1)
