@@ -5,8 +5,9 @@
 // and depth formula; a placement where the marker moved or was not seen steadily is refused.
 // Each accepted placement appends one row per camera to the pairs CSV at once (undo and
 // resume work on that file).
+#include <array>
 #include <chrono>
-#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,12 +16,12 @@
 #include <set>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <opencv2/aruco.hpp>
 
 #include "collect_cameras.h"
+#include "collect_placement.h"
 #include "command.h"
 #include "image_io.h"
 #include "ips/core/clock.h"
@@ -36,7 +37,6 @@ namespace fs = std::filesystem;
 namespace ips::cli {
 namespace cmd_collect {  // named, not anonymous: unique in a unity build
 
-using collect::CameraVerdict;
 using collect::Entry;
 
 struct Args {
@@ -49,6 +49,25 @@ struct Args {
   double min_seen = 0.8;
 };
 
+// The floor reference points A and B of distances entries (--ref-a, --ref-b), if given.
+struct References {
+  bool given = false;
+  Eigen::Vector2d a = Eigen::Vector2d::Zero(), b = Eigen::Vector2d::Zero();
+};
+
+// Everything a session works on, set up before the first placement.
+struct Session {
+  explicit Session(const Args& args) : a(args) {}
+
+  const Args& a;
+  References refs;
+  std::vector<Eigen::Vector3d> listed;  // --points
+  std::set<std::size_t> skipped;        // indices into `listed`
+  collect::PairsFile pairs;
+  std::vector<CameraRun> cams;
+  ReadOptions reading;
+};
+
 std::string counts_text(const collect::PairsFile& pairs, const std::vector<CameraRun>& cams) {
   const auto n = pairs.counts();
   std::string s;
@@ -57,17 +76,6 @@ std::string counts_text(const collect::PairsFile& pairs, const std::vector<Camer
     s += (s.empty() ? "" : ", ") + c.name + " " + std::to_string(it == n.end() ? 0 : it->second);
   }
   return s;
-}
-
-std::string xyz(const Eigen::Vector3d& p) {
-  char buf[80];
-  std::snprintf(buf, sizeof buf, "x %.3f  y %.3f  z %.3f m", p.x(), p.y(), p.z());
-  return buf;
-}
-
-void say(const std::string& text) {
-  std::fputs(text.c_str(), stdout);
-  std::fflush(stdout);
 }
 
 void print_help(bool have_points, bool have_refs) {
@@ -82,25 +90,41 @@ void print_help(bool have_points, bool have_refs) {
   say("    u                    undo the last placement;  q  quit (every placement is saved at once);  ?  help\n");
 }
 
-int run(const Args& a) {
-  // ---- Check everything before opening a camera or writing anything.
+// ---- Checks before a camera is opened or anything written.
+
+// The numeric options.
+void check_options(const Args& a) {
   if (a.marker < 0) throw InputError("--marker: must be a marker id >= 0");
   if (a.frames < 1 || a.frames > 10000) throw InputError("--frames: must be 1..10000");
   if (!(a.max_spread > 0)) throw InputError("--max-spread: must be > 0 m");
   if (!(a.min_seen > 0 && a.min_seen <= 1)) throw InputError("--min-seen: must be in (0, 1]");
-  const bool have_refs = !a.ref_a.empty() || !a.ref_b.empty();
-  if (have_refs && (a.ref_a.size() != 2 || a.ref_b.size() != 2))
+}
+
+// --ref-a and --ref-b: both or neither, each X Y, at least 0.1 m apart.
+References check_references(const Args& a) {
+  References refs;
+  refs.given = !a.ref_a.empty() || !a.ref_b.empty();
+  if (!refs.given) return refs;
+  if (a.ref_a.size() != 2 || a.ref_b.size() != 2)
     throw InputError("--ref-a and --ref-b: give both, each as X Y in metres");
-  const Eigen::Vector2d ref_a = have_refs ? Eigen::Vector2d(a.ref_a[0], a.ref_a[1]) : Eigen::Vector2d();
-  const Eigen::Vector2d ref_b = have_refs ? Eigen::Vector2d(a.ref_b[0], a.ref_b[1]) : Eigen::Vector2d();
-  if (have_refs && ((ref_a - ref_b).norm() < 0.1 || !ref_a.allFinite() || !ref_b.allFinite()))
+  refs.a = Eigen::Vector2d(a.ref_a[0], a.ref_a[1]);
+  refs.b = Eigen::Vector2d(a.ref_b[0], a.ref_b[1]);
+  if ((refs.a - refs.b).norm() < 0.1 || !refs.a.allFinite() || !refs.b.allFinite())
     throw InputError("--ref-a, --ref-b: the reference points must be >= 0.1 m apart");
-  const DaemonConfig config = load_config(a.config, ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
+  return refs;
+}
+
+// --marker must be in the configured dictionary.
+void check_marker(const Args& a, const DaemonConfig& config) {
   const int dict_size =
       cv::aruco::getPredefinedDictionary(dictionary_id(config.detection.dictionary))->bytesList.rows;
   if (a.marker >= dict_size)
     throw InputError("--marker " + std::to_string(a.marker) + ": not in " +
                      config.detection.dictionary + " (0.." + std::to_string(dict_size - 1) + ")");
+}
+
+// The cameras of `config` named by --camera, in that order; all of them without --camera.
+std::vector<const CameraConfig*> select_cameras(const Args& a, const DaemonConfig& config) {
   std::vector<const CameraConfig*> selected;
   for (const auto& name : a.cameras) {
     const CameraConfig* found = nullptr;
@@ -115,238 +139,221 @@ int run(const Args& a) {
   }
   if (a.cameras.empty())
     for (const auto& c : config.cameras) selected.push_back(&c);
-  std::vector<Eigen::Vector3d> listed;
-  if (!a.points.empty()) {
-    std::ifstream in(a.points);
-    if (!in) throw InputError(a.points + ": cannot open the list of positions");
-    std::stringstream text;
-    text << in.rdbuf();
-    listed = collect::parse_points_csv(text.str(), a.points);
-  }
-  const fs::path out = a.out;
-  if (!out.parent_path().empty() && !fs::is_directory(out.parent_path()))
-    throw InputError("--out " + a.out + ": no such directory " + out.parent_path().string());
-  collect::PairsFile pairs;
-  bool resumed = false;
-  if (fs::exists(out)) {
-    std::ifstream in(out);
-    std::stringstream text;
-    text << in.rdbuf();
-    pairs = collect::PairsFile::parse(text.str(), a.out);
-    resumed = true;
-  }
+  return selected;
+}
 
-  // ---- The cameras, as the daemon runs them.
+// The positions listed in the --points file (none without --points).
+std::vector<Eigen::Vector3d> read_listed(const std::string& points) {
+  if (points.empty()) return {};
+  std::ifstream in(points);
+  if (!in) throw InputError(points + ": cannot open the list of positions");
+  std::stringstream text;
+  text << in.rdbuf();
+  return collect::parse_points_csv(text.str(), points);
+}
+
+// The pairs file --out: its directory must exist; an existing file is read into `pairs` and
+// resumed (returns true).
+bool open_pairs(const std::string& out_name, collect::PairsFile& pairs) {
+  const fs::path out = out_name;
+  if (!out.parent_path().empty() && !fs::is_directory(out.parent_path()))
+    throw InputError("--out " + out_name + ": no such directory " + out.parent_path().string());
+  if (!fs::exists(out)) return false;
+  std::ifstream in(out);
+  std::stringstream text;
+  text << in.rdbuf();
+  pairs = collect::PairsFile::parse(text.str(), out_name);
+  return true;
+}
+
+// ---- The cameras, as the daemon runs them.
+std::vector<CameraRun> open_cameras(const std::vector<const CameraConfig*>& selected,
+                                    const DaemonConfig& config, int marker) {
   SourceContext context;
   context.synthetic_epoch_mono_ns = monotonic_ns();
   std::vector<CameraRun> cams;
   for (const CameraConfig* c : selected) {
-    cams.push_back(open_camera(*c, config, context, config.markers.sizes().length_of(a.marker)));
+    cams.push_back(open_camera(*c, config, context, config.markers.sizes().length_of(marker)));
   }
+  return cams;
+}
 
+// What the session reads, into which file, and the help.
+void print_start(const Session& s, const DaemonConfig& config, bool resumed) {
   std::string cam_names;
-  for (const auto& c : cams) cam_names += (cam_names.empty() ? "" : ", ") + c.name;
+  for (const auto& c : s.cams) cam_names += (cam_names.empty() ? "" : ", ") + c.name;
   char head[300];
   std::snprintf(head, sizeof head,
                 "ips collect: marker %d (%s, %.3f m), %d frames per placement, cameras: %s\n",
-                a.marker, config.detection.dictionary.c_str(),
-                config.markers.sizes().length_of(a.marker), a.frames, cam_names.c_str());
+                s.a.marker, config.detection.dictionary.c_str(),
+                config.markers.sizes().length_of(s.a.marker), s.a.frames, cam_names.c_str());
   say(head);
-  say("pairs file: " + a.out +
-      (resumed ? " (resumed: " + std::to_string(pairs.placements().size()) +
-                     " placement(s); pairs " + counts_text(pairs, cams) + ")\n"
+  say("pairs file: " + s.a.out +
+      (resumed ? " (resumed: " + std::to_string(s.pairs.placements().size()) +
+                     " placement(s); pairs " + counts_text(s.pairs, s.cams) + ")\n"
                : " (new)\n"));
-  if (have_refs)
-    say("reference points: A " + xyz({ref_a.x(), ref_a.y(), 0}) + ", B " +
-        xyz({ref_b.x(), ref_b.y(), 0}) + "\n");
-  print_help(!listed.empty(), have_refs);
+  if (s.refs.given)
+    say("reference points: A " + xyz({s.refs.a.x(), s.refs.a.y(), 0}) + ", B " +
+        xyz({s.refs.b.x(), s.refs.b.y(), 0}) + "\n");
+  print_help(!s.listed.empty(), s.refs.given);
+}
 
-  collect::EntryLimits limits;
-  collect::SteadyOptions steady;
-  steady.max_spread = a.max_spread;
-  steady.min_seen_fraction = a.min_seen;
-  std::set<std::size_t> skipped;
-  // A listed position counts as done when a placement in the file lies within 2 cm of it
-  // (the typed, measured position may differ from the listed one by the tape's error).
-  auto next_listed = [&]() -> long {
-    for (std::size_t i = 0; i < listed.size(); ++i) {
-      if (skipped.count(i)) continue;
-      bool done = false;
-      for (const auto& p : pairs.placements()) done = done || (p.world - listed[i]).norm() < 0.02;
-      if (!done) return static_cast<long>(i);
-    }
-    return -1;
-  };
-  auto save = [&] { write_file_atomically(out, pairs.text()); };
+// ---- The placements, one typed line at a time.
 
-  std::string line;
-  while (true) {
-    const long target = listed.empty() ? -1 : next_listed();
-    if (!listed.empty() && target < 0) {
-      say("every listed position is done or skipped\n");
-      break;
-    }
-    const std::size_t number = pairs.placements().size() + 1;
-    if (target >= 0) {
-      say("placement " + std::to_string(number) + ": put the marker at " +
-          xyz(listed[static_cast<std::size_t>(target)]) + " (listed " +
-          std::to_string(target + 1) + "/" + std::to_string(listed.size()) +
-          "), Enter when it lies still > ");
-    } else {
-      say("placement " + std::to_string(number) + ": position > ");
-    }
-    if (!std::getline(std::cin, line)) {
-      say("\n(end of input)\n");
-      break;
-    }
-    const std::int64_t entered_ns = monotonic_ns();
-    Entry e;
-    std::string error;
-    if (!collect::parse_entry(line, limits, e, error)) {
-      say("  not understood: " + error + "\n");
-      continue;
-    }
-    Eigen::Vector3d world = Eigen::Vector3d::Zero();
-    switch (e.kind) {
-      case Entry::Kind::kHelp:
-        print_help(!listed.empty(), have_refs);
-        continue;
-      case Entry::Kind::kQuit:
-        break;
-      case Entry::Kind::kUndo: {
-        collect::Placement removed;
-        if (!pairs.undo(removed)) {
-          say("  nothing to undo\n");
-          continue;
-        }
-        save();
-        std::string which;
-        for (const auto& c : removed.cameras) which += (which.empty() ? "" : ", ") + c.first;
-        say("  undone: the placement at " + xyz(removed.world) + " (" + which + "); pairs " +
-            counts_text(pairs, cams) + "\n");
-        continue;
-      }
-      case Entry::Kind::kSkip:
-        if (target < 0) {
-          say("  nothing to skip (no --points list)\n");
-        } else {
-          skipped.insert(static_cast<std::size_t>(target));
-          say("  skipped listed position " + std::to_string(target + 1) + "\n");
-        }
-        continue;
-      case Entry::Kind::kAccept:
-        if (target < 0) {
-          say("  type the marker's position (x y z in metres), or ? for help\n");
-          continue;
-        }
-        world = listed[static_cast<std::size_t>(target)];
-        break;
-      case Entry::Kind::kPosition:
-        world = e.position;
-        break;
-      case Entry::Kind::kDistances:
-        if (!have_refs) {
-          say("  distances need the reference points: start with --ref-a X Y --ref-b X Y\n");
-          continue;
-        }
-        break;
-    }
-    if (e.kind == Entry::Kind::kQuit) break;
-    std::array<Eigen::Vector2d, 2> candidates;
-    if (e.kind == Entry::Kind::kDistances) {
-      try {
-        candidates = collect::from_two_distances(ref_a, ref_b, e.d_a, e.d_b);
-      } catch (const InputError& err) {
-        say(std::string("  not understood: ") + err.what() + "\n");
-        continue;
-      }
-    }
-
-    // ---- Read every camera for --frames frames captured after the Enter key.
-    say("  reading " + std::to_string(a.frames) + " frame(s) from " + std::to_string(cams.size()) +
-        " camera(s)...\n");
-    std::vector<Capture> captures(cams.size());
-    {
-      std::vector<std::thread> threads;
-      for (std::size_t i = 0; i < cams.size(); ++i)
-        threads.emplace_back([&, i] {
-          try {
-            captures[i] = capture(cams[i], a.marker, a.frames, entered_ns);
-          } catch (const std::exception& err) {  // e.g. out of memory: report, do not terminate
-            captures[i].problem = err.what();
-          }
-        });
-      for (auto& t : threads) t.join();
-    }
-    collect::Placement placement;
-    bool moved = false;
-    for (std::size_t i = 0; i < cams.size(); ++i) {
-      const CameraVerdict v = collect::judge(captures[i].samples, captures[i].frames, steady);
-      char buf[300];
-      std::snprintf(buf, sizeof buf, "  %-10s seen in %2d/%-2d frames", cams[i].name.c_str(),
-                    v.seen, v.frames);
-      std::string msg = buf;
-      if (v.seen > 0) {
-        std::snprintf(buf, sizeof buf, "  xc %+.4f yc %+.4f zc %.4f m  spread %.1f mm",
-                      v.mean.x(), v.mean.y(), v.mean.z(), v.spread * 1000);
-        msg += buf;
-      }
-      switch (v.kind) {
-        case CameraVerdict::Kind::kNotSeen:
-          msg += "  -> does not see it";
-          break;
-        case CameraVerdict::Kind::kIntermittent:
-          msg += "  -> not steady (seen in fewer than " +
-                 std::to_string(static_cast<int>(std::ceil(a.min_seen * a.frames - 1e-9))) +
-                 "), not recorded";
-          break;
-        case CameraVerdict::Kind::kMoved:
-          std::snprintf(buf, sizeof buf, "  -> MOVED (spread > %.1f mm)", a.max_spread * 1000);
-          msg += buf;
-          moved = true;
-          break;
-        case CameraVerdict::Kind::kSteady:
-          msg += "  -> ok";
-          placement.cameras.emplace_back(cams[i].name, v.mean);
-          break;
-      }
-      if (!captures[i].problem.empty()) msg += "  [" + captures[i].problem + "]";
-      say(msg + "\n");
-    }
-    if (moved) {
-      say("  REFUSED: the marker moved while it was read; let it lie still and enter the "
-          "position again\n");
-      continue;
-    }
-    if (placement.cameras.empty()) {
-      say("  REFUSED: no camera saw marker " + std::to_string(a.marker) +
-          " steadily; nothing recorded\n");
-      continue;
-    }
-    if (e.kind == Entry::Kind::kDistances) {
-      int side = e.side == collect::Side::kLeft ? 0 : e.side == collect::Side::kRight ? 1 : -1;
-      std::string how = side == 0 ? "left, as typed" : "right, as typed";
-      if (side < 0) side = collect::side_from_cameras(pairs, placement.cameras, candidates, how);
-      if (side < 0) {
-        say("  REFUSED: the distances fit two places, " +
-            xyz({candidates[0].x(), candidates[0].y(), e.z}) + " (left of A->B) and " +
-            xyz({candidates[1].x(), candidates[1].y(), e.z}) +
-            " (right); no camera has 4 pairs yet to tell which: add left or right\n");
-        continue;
-      }
-      world = {candidates[static_cast<std::size_t>(side)].x(),
-               candidates[static_cast<std::size_t>(side)].y(), e.z};
-      say("  from the distances: " + xyz(world) + " (" + how + ")\n");
-    }
-    placement.world = world;
-    pairs.add(placement);
-    save();
-    say("  recorded placement " + std::to_string(pairs.placements().size()) + " at " + xyz(world) +
-        "; pairs " + counts_text(pairs, cams) + "\n");
+// The first listed position neither skipped nor done, or -1. A listed position counts as done
+// when a placement in the file lies within 2 cm of it (the typed, measured position may differ
+// from the listed one by the tape's error).
+long next_listed(const Session& s) {
+  for (std::size_t i = 0; i < s.listed.size(); ++i) {
+    if (s.skipped.count(i)) continue;
+    bool done = false;
+    for (const auto& p : s.pairs.placements()) done = done || (p.world - s.listed[i]).norm() < 0.02;
+    if (!done) return static_cast<long>(i);
   }
-  for (auto& c : cams) c.source->close();
-  say("done: " + std::to_string(pairs.placements().size()) + " placement(s) in " + a.out +
-      "; pairs " + counts_text(pairs, cams) + "\n");
+  return -1;
+}
+
+void save(const Session& s) { write_file_atomically(s.a.out, s.pairs.text()); }
+
+// Asks for the next placement, at listed position `target` if >= 0.
+void prompt(const Session& s, long target) {
+  const std::size_t number = s.pairs.placements().size() + 1;
+  if (target >= 0) {
+    say("placement " + std::to_string(number) + ": put the marker at " +
+        xyz(s.listed[static_cast<std::size_t>(target)]) + " (listed " + std::to_string(target + 1) +
+        "/" + std::to_string(s.listed.size()) + "), Enter when it lies still > ");
+  } else {
+    say("placement " + std::to_string(number) + ": position > ");
+  }
+}
+
+void undo(Session& s) {
+  collect::Placement removed;
+  if (!s.pairs.undo(removed)) {
+    say("  nothing to undo\n");
+    return;
+  }
+  save(s);
+  std::string which;
+  for (const auto& c : removed.cameras) which += (which.empty() ? "" : ", ") + c.first;
+  say("  undone: the placement at " + xyz(removed.world) + " (" + which + "); pairs " +
+      counts_text(s.pairs, s.cams) + "\n");
+}
+
+void skip(Session& s, long target) {
+  if (target < 0) {
+    say("  nothing to skip (no --points list)\n");
+    return;
+  }
+  s.skipped.insert(static_cast<std::size_t>(target));
+  say("  skipped listed position " + std::to_string(target + 1) + "\n");
+}
+
+// What to do after an entry: ask again, quit, or read the cameras for a placement.
+enum class Next { kPrompt, kQuit, kRead };
+
+// Carries out help, undo and skip; for a placement sets `world` (a distances entry's is
+// found after the cameras are read).
+Next handle_entry(Session& s, const Entry& e, long target, Eigen::Vector3d& world) {
+  switch (e.kind) {
+    case Entry::Kind::kHelp:
+      print_help(!s.listed.empty(), s.refs.given);
+      return Next::kPrompt;
+    case Entry::Kind::kQuit:
+      return Next::kQuit;
+    case Entry::Kind::kUndo:
+      undo(s);
+      return Next::kPrompt;
+    case Entry::Kind::kSkip:
+      skip(s, target);
+      return Next::kPrompt;
+    case Entry::Kind::kAccept:
+      if (target < 0) {
+        say("  type the marker's position (x y z in metres), or ? for help\n");
+        return Next::kPrompt;
+      }
+      world = s.listed[static_cast<std::size_t>(target)];
+      return Next::kRead;
+    case Entry::Kind::kPosition:
+      world = e.position;
+      return Next::kRead;
+    case Entry::Kind::kDistances:
+      if (!s.refs.given) {
+        say("  distances need the reference points: start with --ref-a X Y --ref-b X Y\n");
+        return Next::kPrompt;
+      }
+      return Next::kRead;
+  }
+  return Next::kPrompt;
+}
+
+// One entry typed at `entered_ns`: carried out, or the placement read, judged and recorded.
+// Returns false to end the session.
+bool do_entry(Session& s, const Entry& e, long target, std::int64_t entered_ns) {
+  Eigen::Vector3d world = Eigen::Vector3d::Zero();
+  const Next next = handle_entry(s, e, target, world);
+  if (next != Next::kRead) return next != Next::kQuit;
+  const bool distances = e.kind == Entry::Kind::kDistances;
+  std::array<Eigen::Vector2d, 2> candidates;
+  if (distances && !distance_candidates(s.refs.a, s.refs.b, e, candidates)) return true;
+  collect::Placement placement;
+  if (!read_placement(s.cams, s.reading, entered_ns, placement)) return true;
+  if (distances && !place_from_distances(s.pairs, placement, e, candidates, world)) return true;
+  placement.world = world;
+  s.pairs.add(placement);
+  save(s);
+  say("  recorded placement " + std::to_string(s.pairs.placements().size()) + " at " + xyz(world) +
+      "; pairs " + counts_text(s.pairs, s.cams) + "\n");
+  return true;
+}
+
+// Prompts for and reads one line. Returns false to end the session: every listed position
+// done or skipped, the end of the input, or q.
+bool placement_step(Session& s) {
+  const long target = s.listed.empty() ? -1 : next_listed(s);
+  if (!s.listed.empty() && target < 0) {
+    say("every listed position is done or skipped\n");
+    return false;
+  }
+  prompt(s, target);
+  std::string line;
+  if (!std::getline(std::cin, line)) {
+    say("\n(end of input)\n");
+    return false;
+  }
+  const std::int64_t entered_ns = monotonic_ns();
+  Entry e;
+  std::string error;
+  if (!collect::parse_entry(line, collect::EntryLimits{}, e, error)) {
+    say("  not understood: " + error + "\n");
+    return true;
+  }
+  return do_entry(s, e, target, entered_ns);
+}
+
+int run(const Args& a) {
+  // Check everything before opening a camera or writing anything.
+  check_options(a);
+  const References refs = check_references(a);
+  const DaemonConfig config = load_config(a.config, ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
+  check_marker(a, config);
+  const std::vector<const CameraConfig*> selected = select_cameras(a, config);
+  Session s(a);
+  s.refs = refs;
+  s.listed = read_listed(a.points);
+  const bool resumed = open_pairs(a.out, s.pairs);
+  s.reading.marker = a.marker;
+  s.reading.frames = a.frames;
+  s.reading.steady.max_spread = a.max_spread;
+  s.reading.steady.min_seen_fraction = a.min_seen;
+
+  s.cams = open_cameras(selected, config, a.marker);
+  print_start(s, config, resumed);
+  while (placement_step(s)) {
+  }
+  for (auto& c : s.cams) c.source->close();
+  say("done: " + std::to_string(s.pairs.placements().size()) + " placement(s) in " + a.out +
+      "; pairs " + counts_text(s.pairs, s.cams) + "\n");
   return 0;
 }
 
