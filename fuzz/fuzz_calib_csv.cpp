@@ -9,9 +9,9 @@
 #include <string_view>
 
 #include "fuzz_util.h"
-#include "ips/mapping/calib_data.h"
 #include "ips/collect/collect.h"
 #include "ips/core/error.h"
+#include "ips/mapping/calib_data.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(ips::fuzz::as_text(data, size));

@@ -19,11 +19,10 @@ void check(bool ok) {
 }
 
 bool same_ints(const ips::Datagram& a, const ips::Datagram& b) {
-  if (a.version != b.version || a.has_velocity != b.has_velocity || a.sequence != b.sequence ||
-      a.update != b.update || a.part != b.part || a.parts != b.parts ||
-      a.capture_realtime_ns != b.capture_realtime_ns || a.capture_monotonic_ns != b.capture_monotonic_ns ||
-      a.publish_realtime_ns != b.publish_realtime_ns || a.markers.size() != b.markers.size() ||
-      a.bodies.size() != b.bodies.size())
+  if (a.version != b.version || a.has_velocity != b.has_velocity || a.sequence != b.sequence || a.update != b.update ||
+      a.part != b.part || a.parts != b.parts || a.capture_realtime_ns != b.capture_realtime_ns ||
+      a.capture_monotonic_ns != b.capture_monotonic_ns || a.publish_realtime_ns != b.publish_realtime_ns ||
+      a.markers.size() != b.markers.size() || a.bodies.size() != b.bodies.size())
     return false;
   for (std::size_t i = 0; i < a.bodies.size(); ++i)
     if (a.bodies[i].name != b.bodies[i].name || a.bodies[i].camera_mask != b.bodies[i].camera_mask ||
@@ -63,9 +62,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!json) {
     check(status == IPS_WIRE_OK);
     check(h.version == d.version && h.sequence == d.sequence && h.update == d.update && h.part == d.part &&
-          h.parts == d.parts && h.marker_count == d.markers.size() &&
-          h.capture_realtime_ns == d.capture_realtime_ns && h.capture_monotonic_ns == d.capture_monotonic_ns &&
-          h.publish_realtime_ns == d.publish_realtime_ns &&
+          h.parts == d.parts && h.marker_count == d.markers.size() && h.capture_realtime_ns == d.capture_realtime_ns &&
+          h.capture_monotonic_ns == d.capture_monotonic_ns && h.publish_realtime_ns == d.publish_realtime_ns &&
           ((h.flags & IPS_WIRE_FLAG_VELOCITY) != 0) == d.has_velocity);
     for (std::uint16_t i = 0; i < h.marker_count; ++i) {
       ips_wire_marker m{};

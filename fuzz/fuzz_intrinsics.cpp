@@ -6,8 +6,8 @@
 #include <cstdint>
 
 #include "fuzz_util.h"
-#include "ips/geometry/camera_model.h"
 #include "ips/core/error.h"
+#include "ips/geometry/camera_model.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const bool json = size > 0 && data[0] == '{';

@@ -23,8 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (served && method != "GET" && method != "HEAD") std::abort();
   if (served && r.head != (method == "HEAD")) std::abort();
   if (r.kind == Kind::kAsset || r.kind == Kind::kCameraJpeg || r.kind == Kind::kCameraJson) {
-    if (r.name.empty() || r.name.find('/') != std::string::npos || r.name.find("..") != std::string::npos)
-      std::abort();
+    if (r.name.empty() || r.name.find('/') != std::string::npos || r.name.find("..") != std::string::npos) std::abort();
     for (const char c : r.name)
       if (static_cast<unsigned char>(c) <= 0x20 || static_cast<unsigned char>(c) >= 0x7f) std::abort();
   }

@@ -62,9 +62,8 @@ cv::Mat scene(int k) {
     cv::rectangle(img, cv::Rect(p, cv::Size(120, 120)), cv::Scalar::all(0), cv::FILLED);
     for (int c = 0; c < 16; ++c)
       if (rng.uniform(0, 2))
-        cv::rectangle(
-            img, cv::Rect(p + cv::Point(20 + (c % 4) * 20, 20 + (c / 4) * 20), cv::Size(20, 20)),
-            cv::Scalar::all(255), cv::FILLED);
+        cv::rectangle(img, cv::Rect(p + cv::Point(20 + (c % 4) * 20, 20 + (c / 4) * 20), cv::Size(20, 20)),
+                      cv::Scalar::all(255), cv::FILLED);
   }
   cv::Mat noise(img.size(), img.type());
   rng.fill(noise, cv::RNG::NORMAL, 0, 4);
@@ -73,16 +72,14 @@ cv::Mat scene(int k) {
 }
 
 int parent(int argc, char** argv, const std::string& emulator) {
-  const fs::path work =
-      fs::temp_directory_path() / ("ips-bench-capture-" + std::to_string(getpid()));
+  const fs::path work = fs::temp_directory_path() / ("ips-bench-capture-" + std::to_string(getpid()));
   fs::create_directories(work / "frames");
   std::size_t bytes = 0;
   for (int k = 0; k < 8; ++k) {
     std::vector<std::uint8_t> jpeg;
     cv::imencode(".jpg", scene(k), jpeg, {cv::IMWRITE_JPEG_QUALITY, 85});
     std::ofstream((work / "frames" / fmt::format("f{}.jpg", k)).string(), std::ios::binary)
-        .write(reinterpret_cast<const char*>(jpeg.data()),
-               static_cast<std::streamsize>(jpeg.size()));
+        .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
     bytes += jpeg.size();
   }
   std::printf("frames: 1920x1080 MJPEG, quality 85, mean %.0f kB\n", bytes / 8.0 / 1000.0);
@@ -93,16 +90,14 @@ int parent(int argc, char** argv, const std::string& emulator) {
   std::vector<std::string> env;
   for (char** e = environ; *e; ++e) env.emplace_back(*e);
   env.push_back("LD_PRELOAD=" + emulator);
-  env.push_back("IPS_V4L2_EMU_DEVICES=" + std::string(kDevice) + "=" +
-                (work / "cam.conf").string());
+  env.push_back("IPS_V4L2_EMU_DEVICES=" + std::string(kDevice) + "=" + (work / "cam.conf").string());
   env.push_back("IPS_BENCH_CAPTURE_FRAMES_DIR=" + (work / "frames").string());
   std::vector<char*> envp;
   for (auto& s : env) envp.push_back(s.data());
   envp.push_back(nullptr);
   pid_t pid = 0;
   int status = 1;
-  if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv, envp.data()) == 0)
-    waitpid(pid, &status, 0);
+  if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv, envp.data()) == 0) waitpid(pid, &status, 0);
   fs::remove_all(work);
   (void)argc;
   return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
@@ -110,8 +105,7 @@ int parent(int argc, char** argv, const std::string& emulator) {
 
 int child(int frames) {
   spdlog::set_level(spdlog::level::warn);
-  std::printf("%-32s %12s %14s %16s\n", "configuration", "CPU ms/frame", "CPU % @30fps",
-              "decode alone");
+  std::printf("%-32s %12s %14s %16s\n", "configuration", "CPU ms/frame", "CPU % @30fps", "decode alone");
 
   // Decode alone, same JPEGs, for the split.
   std::vector<std::vector<std::uint8_t>> jpegs;
@@ -124,8 +118,7 @@ int child(int frames) {
     cv::Mat gray;
     const int n = 60;
     const double c0 = cpu_seconds();
-    for (int i = 0; i < n; ++i)
-      decoder.decode_gray(jpegs[static_cast<std::size_t>(i) % jpegs.size()], gray, scale);
+    for (int i = 0; i < n; ++i) decoder.decode_gray(jpegs[static_cast<std::size_t>(i) % jpegs.size()], gray, scale);
     const double decode_ms = (cpu_seconds() - c0) / n * 1e3;
 
     ips::V4L2Options options;
@@ -136,18 +129,15 @@ int child(int frames) {
     ips::Frame frame;
     auto grab = [&](int count) {
       for (int got = 0; got < count;)
-        got += source.read(frame, std::chrono::milliseconds(1000)) ==
-               ips::FrameSource::ReadStatus::kFrame;
+        got += source.read(frame, std::chrono::milliseconds(1000)) == ips::FrameSource::ReadStatus::kFrame;
     };
     grab(5);  // warm-up: first buffers, decoder state
     const double w0 = wall_seconds(), t0 = cpu_seconds();
     grab(frames);
     const double cpu = cpu_seconds() - t0, wall = wall_seconds() - w0;
     source.close();
-    const std::string name =
-        fmt::format("capture+decode 1/{} ({}x{})", scale, frame.gray.cols, frame.gray.rows);
-    std::printf("%-32s %12.2f %13.1f%% %13.2f ms\n", name.c_str(), cpu / frames * 1e3,
-                100.0 * cpu / wall, decode_ms);
+    const std::string name = fmt::format("capture+decode 1/{} ({}x{})", scale, frame.gray.cols, frame.gray.rows);
+    std::printf("%-32s %12.2f %13.1f%% %13.2f ms\n", name.c_str(), cpu / frames * 1e3, 100.0 * cpu / wall, decode_ms);
     if (source.stats().driver_drops > 0)
       std::printf("  (%llu frames dropped by the driver)\n",
                   static_cast<unsigned long long>(source.stats().driver_drops));
@@ -160,8 +150,7 @@ int child(int frames) {
 int main(int argc, char** argv) {
   int frames = 150;
   std::string emulator =
-      (fs::canonical("/proc/self/exe").parent_path().parent_path() / "tests" / "libips_v4l2_emu.so")
-          .string();
+      (fs::canonical("/proc/self/exe").parent_path().parent_path() / "tests" / "libips_v4l2_emu.so").string();
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string arg = argv[i];
     if (arg == "--frames")
@@ -179,9 +168,8 @@ int main(int argc, char** argv) {
   }
   if (std::getenv("IPS_BENCH_CAPTURE_FRAMES_DIR") != nullptr) return child(frames);
   if (!fs::exists(emulator)) {
-    std::fprintf(
-        stderr, "bench_capture: emulator %s not found (build target ips_v4l2_emu, or --emulator)\n",
-        emulator.c_str());
+    std::fprintf(stderr, "bench_capture: emulator %s not found (build target ips_v4l2_emu, or --emulator)\n",
+                 emulator.c_str());
     return 2;
   }
   return parent(argc, argv, emulator);

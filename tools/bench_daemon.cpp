@@ -47,9 +47,9 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
-#include "loopback_udp.h"
 #include "ips/core/clock.h"
 #include "ips/output/packet_codec.h"
+#include "loopback_udp.h"
 
 namespace fs = std::filesystem;
 
@@ -107,7 +107,8 @@ long machine_idle_ticks() {
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
-  const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(std::ceil(p / 100.0 * static_cast<double>(v.size()))) - 1);
+  const std::size_t i =
+      std::min(v.size() - 1, static_cast<std::size_t>(std::ceil(p / 100.0 * static_cast<double>(v.size()))) - 1);
   return v[i];
 }
 
@@ -129,15 +130,21 @@ int main(int argc, char** argv) {
       continue;
     }
     if (i + 1 >= argc) a.clear();  // an option without its value: the usage below
-    if (a == "--cameras") n_cameras = std::stoi(argv[i + 1]);
-    else if (a == "--seconds") seconds = std::stod(argv[i + 1]);
-    else if (a == "--fps") fps = std::stod(argv[i + 1]);
-    else if (a == "--ipsd") ipsd = argv[i + 1];
-    else if (a == "--ips") ips = argv[i + 1];
+    if (a == "--cameras")
+      n_cameras = std::stoi(argv[i + 1]);
+    else if (a == "--seconds")
+      seconds = std::stod(argv[i + 1]);
+    else if (a == "--fps")
+      fps = std::stod(argv[i + 1]);
+    else if (a == "--ipsd")
+      ipsd = argv[i + 1];
+    else if (a == "--ips")
+      ips = argv[i + 1];
     else if (a == "--tracking" && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off"))
       tracking = argv[i + 1];
     else {
-      std::fprintf(stderr, "usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--ipsd PATH] [--ips PATH]\n");
+      std::fprintf(stderr,
+                   "usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--ipsd PATH] [--ips PATH]\n");
       return 2;
     }
   }
@@ -147,8 +154,12 @@ int main(int argc, char** argv) {
   const fs::path log = dir / "setup.log";
   std::printf("bench_daemon: fitting a plane model on simulated pairs...\n");
   std::fflush(stdout);
-  if (run({ips.string(), "sim", "collect", "--scene", scene.string(), "--points", "20", "--out", (dir / "pairs.csv").string()}, log) != 0 ||
-      run({ips.string(), "fit", "--data", (dir / "pairs.csv").string(), "--method", "plane", "--out", (dir / "model.json").string()}, log) != 0) {
+  if (run({ips.string(), "sim", "collect", "--scene", scene.string(), "--points", "20", "--out",
+           (dir / "pairs.csv").string()},
+          log) != 0 ||
+      run({ips.string(), "fit", "--data", (dir / "pairs.csv").string(), "--method", "plane", "--out",
+           (dir / "model.json").string()},
+          log) != 0) {
     std::fprintf(stderr, "bench_daemon: model setup failed, see %s\n", log.c_str());
     return 1;
   }
@@ -199,8 +210,10 @@ int main(int argc, char** argv) {
     }
   } else {
     cameras << "  - {name: red, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.000}\n"
-            << "  - {name: white, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.011}\n"
-            << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps << ", phase: 0.023}\n";
+            << "  - {name: white, source: synthetic, scene: " << scene.string() << ", fps: " << fps
+            << ", phase: 0.011}\n"
+            << "  - {name: black, source: synthetic, scene: " << scene.string() << ", fps: " << fps
+            << ", phase: 0.023}\n";
   }
   std::ofstream(dir / "ipsd.yaml")
       << "cameras:\n"
@@ -225,7 +238,8 @@ int main(int argc, char** argv) {
       const std::int64_t arrival = ips::realtime_ns();
       if (n <= 0) continue;
       try {
-        const ips::Datagram d = ips::decode_datagram(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)));
+        const ips::Datagram d =
+            ips::decode_datagram(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)));
         ++n_dgrams;
         if (to_send) to_send->push_back(1e-6 * static_cast<double>(d.publish_realtime_ns - d.capture_realtime_ns));
         if (to_arrive) to_arrive->push_back(1e-6 * static_cast<double>(arrival - d.capture_realtime_ns));
@@ -273,12 +287,15 @@ int main(int argc, char** argv) {
   ::waitpid(pid, &ws, 0);
 
   std::printf("\nbench_daemon: %.1f s measured, %zu datagrams (%.1f/s), %.2f markers per datagram\n", wall, datagrams,
-              static_cast<double>(datagrams) / wall, datagrams ? static_cast<double>(markers) / static_cast<double>(datagrams) : 0.0);
+              static_cast<double>(datagrams) / wall,
+              datagrams ? static_cast<double>(markers) / static_cast<double>(datagrams) : 0.0);
   std::printf("daemon, %zu status intervals of 1 s:\n", proc50.size());
-  std::printf("processing latency (delivered -> sendto)  p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
-              percentile(proc50, 50), percentile(proc99, 100), percentile(proc99, 50));
-  std::printf("capture latency    (capture -> sendto)    p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
-              percentile(cap50, 50), percentile(cap99, 100), percentile(cap99, 50));
+  std::printf(
+      "processing latency (delivered -> sendto)  p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
+      percentile(proc50, 50), percentile(proc99, 100), percentile(proc99, 50));
+  std::printf(
+      "capture latency    (capture -> sendto)    p50 %6.1f ms   p99 %6.1f ms (largest interval p99; median %.1f)\n",
+      percentile(cap50, 50), percentile(cap99, 100), percentile(cap99, 50));
   std::printf("from the datagrams:\n");
   std::printf("latency capture -> sendto   p50 %7.1f ms   p99 %7.1f ms   max %7.1f ms\n", percentile(to_send, 50),
               percentile(to_send, 99), percentile(to_send, 100));
@@ -289,9 +306,11 @@ int main(int argc, char** argv) {
   // processing (delivered -> sendto) <= (capture -> sendto) - delay, quantile by quantile: the
   // pooled p99 the per-interval status figures cannot give.
   const double delay_ms = replay ? 0.0 : 1000.0 / fps;  // a file source hands a frame over when read
-  std::printf("processing, all datagrams  p50 <= %5.1f ms   p99 <= %5.1f ms   max <= %5.1f ms  (capture -> sendto - %.1f ms transport)\n",
-              percentile(to_send, 50) - delay_ms, percentile(to_send, 99) - delay_ms, percentile(to_send, 100) - delay_ms,
-              delay_ms);
+  std::printf(
+      "processing, all datagrams  p50 <= %5.1f ms   p99 <= %5.1f ms   max <= %5.1f ms  (capture -> sendto - %.1f ms "
+      "transport)\n",
+      percentile(to_send, 50) - delay_ms, percentile(to_send, 99) - delay_ms, percentile(to_send, 100) - delay_ms,
+      delay_ms);
   std::printf("%-12s %8s %8s %10s %8s %8s\n", "thread", "CPU %", "fps", "detect ms", "markers", "drops");
   long total = 0, simulator = 0, camera_ticks = 0;
   double fps_sum = 0, camera_frames = 0;
@@ -325,8 +344,9 @@ int main(int argc, char** argv) {
     }
   }
   // A daemon left running for months must not grow: run with a long --seconds to soak.
-  std::printf("memory: resident %.1f MiB at the start of the measurement, %.1f MiB at its end (%+.2f MiB), peak %.1f MiB\n",
-              rss0, rss1, rss1 - rss0, rss_peak);
+  std::printf(
+      "memory: resident %.1f MiB at the start of the measurement, %.1f MiB at its end (%+.2f MiB), peak %.1f MiB\n",
+      rss0, rss1, rss1 - rss0, rss_peak);
   const double to_pct = 100.0 / static_cast<double>(ticks) / wall;
   std::printf("%-12s %8.1f   (%u hardware threads)\n", "ipsd total", static_cast<double>(total) * to_pct,
               std::thread::hardware_concurrency());

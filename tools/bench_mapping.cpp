@@ -39,10 +39,8 @@ void fit(benchmark::State& state, const std::string& method) {
 
 const int registered = [] {
   for (const auto& method : ips::mapper_names()) {
-    if (method != "auto")
-      benchmark::RegisterBenchmark(("predict/" + method).c_str(), predict, method);
-    benchmark::RegisterBenchmark(("fit/" + method).c_str(), fit, method)
-        ->Unit(benchmark::kMillisecond);
+    if (method != "auto") benchmark::RegisterBenchmark(("predict/" + method).c_str(), predict, method);
+    benchmark::RegisterBenchmark(("fit/" + method).c_str(), fit, method)->Unit(benchmark::kMillisecond);
   }
   return 0;
 }();

@@ -56,11 +56,13 @@ int subscribe(std::uint16_t port) {
   ips::subscription::Client client(ips::subscription::Request{}, "");
   std::vector<std::uint8_t> buf(2048);
   for (int i = 0; i < 50 && client.state() != ips::subscription::Client::State::kSubscribed; ++i) {
-    if (auto b = client.due(ips::monotonic_ns())) ::sendto(fd, b->data(), b->size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to);
+    if (auto b = client.due(ips::monotonic_ns()))
+      ::sendto(fd, b->data(), b->size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to);
     pollfd p{fd, POLLIN, 0};
     if (::poll(&p, 1, 100) == 1) {
       const ssize_t n = ::recv(fd, buf.data(), buf.size(), 0);
-      if (n > 0) client.on_datagram(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), ips::monotonic_ns());
+      if (n > 0)
+        client.on_datagram(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), ips::monotonic_ns());
     }
   }
   if (client.state() != ips::subscription::Client::State::kSubscribed) std::fprintf(stderr, "subscribe failed\n");

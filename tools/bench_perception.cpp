@@ -23,10 +23,10 @@
 // fallbacks), "ours-full" (the full search every frame) and the reference. Per-frame CPU.
 // Usage: bench_perception [frames_per_case=40] [scene.yaml] [tracked_frames=150]
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <chrono>
 #include <ctime>
 #include <random>
 #include <string>
@@ -38,12 +38,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/detect/detector.h"
 #include "ips/capture/jpeg_decoder.h"
 #include "ips/capture/jpeg_region_decoder.h"
+#include "ips/detect/detector.h"
+#include "ips/detect/tracker.h"
 #include "ips/geometry/marker_geometry.h"
 #include "ips/sim/renderer.h"
-#include "ips/detect/tracker.h"
 
 namespace {
 
@@ -67,8 +67,7 @@ struct Stats {
     if (v.empty()) return 0;
     std::vector<double> s = v;
     std::sort(s.begin(), s.end());
-    return s[std::min(s.size() - 1,
-                      static_cast<std::size_t>(p * static_cast<double>(s.size() - 1) + 0.5))];
+    return s[std::min(s.size() - 1, static_cast<std::size_t>(p * static_cast<double>(s.size() - 1) + 0.5))];
   }
 };
 
@@ -112,16 +111,14 @@ Agreement agreement(const Result& a, const Result& b) {
   return g;
 }
 
-void score(const std::vector<ips::MarkerDetection>& found,
-           const std::vector<ips::sim::MarkerTruth>& truth, Result& r) {
+void score(const std::vector<ips::MarkerDetection>& found, const std::vector<ips::sim::MarkerTruth>& truth, Result& r) {
   for (const auto& t : truth) {
     ++r.expected;
     for (const auto& d : found) {
       if (d.id != t.id) continue;
       ++r.found;
       for (std::size_t i = 0; i < 4; ++i) {
-        r.corner_err.add(std::hypot(d.corners_px[i].x - t.corners_px[i].x,
-                                    d.corners_px[i].y - t.corners_px[i].y));
+        r.corner_err.add(std::hypot(d.corners_px[i].x - t.corners_px[i].x, d.corners_px[i].y - t.corners_px[i].y));
       }
       break;
     }
@@ -150,9 +147,8 @@ Result reference(const Case& c, const ips::CameraModel& cam, double length, int 
     std::vector<int> ids;
     cv::aruco::detectMarkers(gray, dict, corners, ids, params);
     for (auto& q : corners) {
-      cv::cornerSubPix(
-          gray, q, cv::Size(3, 3), cv::Size(-1, -1),
-          cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 30, 0.001));
+      cv::cornerSubPix(gray, q, cv::Size(3, 3), cv::Size(-1, -1),
+                       cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 30, 0.001));
     }
     const double t_det = ms_since(t0);
     t0 = Clock::now();
@@ -162,8 +158,7 @@ Result reference(const Case& c, const ips::CameraModel& cam, double length, int 
       cv::fisheye::undistortPoints(in, out, K, D);
       double per = 0;
       for (int i = 0; i < 4; ++i)
-        per += cv::norm(out[static_cast<std::size_t>((i + 1) % 4)] -
-                        out[static_cast<std::size_t>(i)]);
+        per += cv::norm(out[static_cast<std::size_t>((i + 1) % 4)] - out[static_cast<std::size_t>(i)]);
       sink += 4 * length / per;
     }
     const double t_loc = ms_since(t0);
@@ -184,14 +179,11 @@ Result reference(const Case& c, const ips::CameraModel& cam, double length, int 
     cv::setNumThreads(threads_available);
     const auto w0 = std::chrono::steady_clock::now();
     cv::aruco::detectMarkers(gray, dict, corners, ids, params);
-    ref.detect_threaded.add(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - w0)
-            .count());
+    ref.detect_threaded.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - w0).count());
     cv::setNumThreads(1);
   }
   return ref;
 }
-
 
 // A tracked case: `n_markers` 20 cm markers moving on the floor under the red camera at
 // up to 1 m/s, one lane each (0.34 m apart: they never overlap), bouncing at the ends, turning
@@ -239,8 +231,7 @@ Result ours_tracked(const Case& c, const ips::CameraModel& cam, double length, S
   for (std::size_t f = 0; f < c.jpegs.size(); ++f) {
     auto t0 = Clock::now();
     const ips::TrackPlan plan = tracker.plan(cv::Size(1920, 1080));
-    if (plan.full ? !decoder.decode_gray(c.jpegs[f], gray) : !region.decode(c.jpegs[f], gray, plan.rois))
-      std::exit(1);
+    if (plan.full ? !decoder.decode_gray(c.jpegs[f], gray) : !region.decode(c.jpegs[f], gray, plan.rois)) std::exit(1);
     double t_dec = ms_since(t0);
     if (!plan.full) partial_decode.add(t_dec);
     t0 = Clock::now();
@@ -295,8 +286,7 @@ void skip_costs(const Case& c, const char* label) {
       "%-7s           | partial decode (JpegRegionDecoder) median: whole frame %.2f; top MCU row only %.2f; "
       "bottom MCU row only %.2f -> skipping the 67 rows above costs %.2f (%.3f per MCU row, %.0f %% of a "
       "whole decode): the Huffman decoding a restart-marker stream would let a decoder jump over\n",
-      label, whole.pct(0.5), top.pct(0.5), bottom.pct(0.5), skipped, skipped / 67.0,
-      100.0 * skipped / whole.pct(0.5));
+      label, whole.pct(0.5), top.pct(0.5), bottom.pct(0.5), skipped, skipped / 67.0, 100.0 * skipped / whole.pct(0.5));
 }
 
 // Ours without tracking: full decode + full search on every frame. `decode_floor`: also time a
@@ -344,9 +334,9 @@ void print_row(const char* label, const char* name, const Result& r) {
   std::printf(
       "%-7s %-9s | %7.2f / %7.2f | %7.2f / %7.2f | %7.3f / %7.3f | %7.2f / %7.2f | %4d/%-4d "
       "%5d | %.3f / %.3f\n",
-      label, name, r.decode.pct(0.5), r.decode.pct(0.95), r.detect.pct(0.5), r.detect.pct(0.95),
-      r.locate.pct(0.5), r.locate.pct(0.95), r.total.pct(0.5), r.total.pct(0.95), r.found, r.expected,
-      r.extra, r.corner_err.pct(0.5), r.corner_err.pct(1.0));
+      label, name, r.decode.pct(0.5), r.decode.pct(0.95), r.detect.pct(0.5), r.detect.pct(0.95), r.locate.pct(0.5),
+      r.locate.pct(0.95), r.total.pct(0.5), r.total.pct(0.95), r.found, r.expected, r.extra, r.corner_err.pct(0.5),
+      r.corner_err.pct(1.0));
 }
 
 }  // namespace
@@ -354,8 +344,7 @@ void print_row(const char* label, const char* name, const Result& r) {
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(5, std::atoi(argv[1])) : 40;
   const int tracked_frames_arg = argc > 3 ? std::atoi(argv[3]) : 150;
-  const std::string scene_path =
-      argc > 2 ? argv[2] : std::string(IPS_SOURCE_DIR) + "/config/scenes/ou2023.yaml";
+  const std::string scene_path = argc > 2 ? argv[2] : std::string(IPS_SOURCE_DIR) + "/config/scenes/ou2023.yaml";
   const int threads_available = cv::getNumThreads();
   cv::setNumThreads(1);
   ips::sim::Scene scene = ips::sim::Scene::load(scene_path);
@@ -374,8 +363,7 @@ int main(int argc, char** argv) {
   std::printf(
       "%-7s %-9s | %-17s | %-17s | %-17s | %-17s | found/expected extra | corner err px "
       "median/max\n",
-      "markers", "pipeline", "decode med/p95 ms", "detect med/p95", "locate med/p95",
-      "total med/p95");
+      "markers", "pipeline", "decode med/p95 ms", "detect med/p95", "locate med/p95", "total med/p95");
   // The last case: 5 small markers (7.5 cm, 24-45 px) spread over the whole view, where the
   // fisheye squeezes them most (found at half scale and read at full resolution).
   for (const auto& [n_markers, length] : {std::pair{0, 0.20}, {1, 0.20}, {5, 0.20}, {5, 0.075}}) {
@@ -392,8 +380,8 @@ int main(int argc, char** argv) {
         m.id = static_cast<int>(placed.size()) * 17 + f % 7;
         m.length = length;
         const ips::sim::MarkerPose pose{C.x() + (uni(rng) - 0.5) * (small ? 3.6 : 2.6),
-                                        C.y() + (uni(rng) - 0.5) * (small ? 2.0 : 1.4),
-                                        uni(rng) * 0.2, uni(rng) * 6.283};
+                                        C.y() + (uni(rng) - 0.5) * (small ? 2.0 : 1.4), uni(rng) * 0.2,
+                                        uni(rng) * 6.283};
         bool clear = true;
         for (const auto& p : placed)
           clear = clear && std::hypot(p.poses[0].x - pose.x, p.poses[0].y - pose.y) > 2 * length;
@@ -419,9 +407,8 @@ int main(int argc, char** argv) {
     std::printf(
         "%-7s           | JPEG %.0f kB mean; decode floor (1/8-scale luma: Huffman decoding only) "
         "%.2f / %.2f; reference detectMarkers on %d OpenCV threads, wall %.2f / %.2f\n",
-        label, bytes / static_cast<double>(c.jpegs.size()) / 1000.0,
-        ours.decode_floor.pct(0.5), ours.decode_floor.pct(0.95), threads_available,
-        ref.detect_threaded.pct(0.5), ref.detect_threaded.pct(0.95));
+        label, bytes / static_cast<double>(c.jpegs.size()) / 1000.0, ours.decode_floor.pct(0.5),
+        ours.decode_floor.pct(0.95), threads_available, ref.detect_threaded.pct(0.5), ref.detect_threaded.pct(0.95));
   }
   // Tracked cases: markers moving at up to 1 m/s, >= 100 frames at 30 fps.
   const int tracked_frames = std::max(100, tracked_frames_arg);

@@ -21,8 +21,8 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/core/utility.hpp>
 
-#include "ips/detect/detector.h"
 #include "ips/capture/jpeg_decoder.h"
+#include "ips/detect/detector.h"
 #include "ips/sim/renderer.h"
 
 namespace {
@@ -71,16 +71,15 @@ int bin_of(double side) {
   return b;
 }
 
-void score(const char* name, const std::vector<ips::MarkerDetection>& found, const Frame& f,
-           std::size_t index, Tally& t) {
+void score(const char* name, const std::vector<ips::MarkerDetection>& found, const Frame& f, std::size_t index,
+           Tally& t) {
   for (const auto& m : f.truth) {
     const int b = bin_of(side_px(m.corners_px));
     ++t.expected[b];
     const auto it = std::find_if(found.begin(), found.end(), [&](const auto& d) { return d.id == m.id; });
     if (it == found.end()) {
-      std::printf("  %-10s missed: frame %zu id %d, %.1f px, edges %.0f deg off the axes, at (%.0f, %.0f)\n",
-                  name, index, m.id, side_px(m.corners_px), axis_angle(m.corners_px), m.corners_px[0].x,
-                  m.corners_px[0].y);
+      std::printf("  %-10s missed: frame %zu id %d, %.1f px, edges %.0f deg off the axes, at (%.0f, %.0f)\n", name,
+                  index, m.id, side_px(m.corners_px), axis_angle(m.corners_px), m.corners_px[0].x, m.corners_px[0].y);
       continue;
     }
     ++t.found[b];
@@ -103,16 +102,15 @@ void print(const char* name, const Tally& t) {
     std::snprintf(s, sizeof s, " %4d/%-4d", t.found[b], t.expected[b]);
     bins += s;
   }
-  std::printf("%-22s | %5d/%-5d %3d |%s | %.3f / %.3f / %.2f | %6.2f / %6.2f\n", name, n, e, t.extra,
-              bins.c_str(), pct(t.err, 0.5), pct(t.err, 0.95), pct(t.err, 1.0), pct(t.ms, 0.5), pct(t.ms, 0.95));
+  std::printf("%-22s | %5d/%-5d %3d |%s | %.3f / %.3f / %.2f | %6.2f / %6.2f\n", name, n, e, t.extra, bins.c_str(),
+              pct(t.err, 0.5), pct(t.err, 0.95), pct(t.err, 1.0), pct(t.ms, 0.5), pct(t.ms, 0.95));
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(1, std::atoi(argv[1])) : 200;
-  const std::string scene_path =
-      argc > 2 ? argv[2] : std::string(IPS_SOURCE_DIR) + "/config/scenes/ou2023.yaml";
+  const std::string scene_path = argc > 2 ? argv[2] : std::string(IPS_SOURCE_DIR) + "/config/scenes/ou2023.yaml";
   const double length = argc > 3 ? std::atof(argv[3]) : 0.075;
   if (!(length > 0.01 && length < 1.0)) {
     std::fprintf(stderr, "bench_small_markers: length_m must be in (0.01, 1), got '%s'\n", argv[3]);
@@ -137,10 +135,11 @@ int main(int argc, char** argv) {
       ips::sim::SceneMarker m;
       m.id = static_cast<int>(placed.size()) * 19 + static_cast<int>(rng() % 19);
       m.length = length;
-      const ips::sim::MarkerPose pose{C.x() + (uni(rng) - 0.5) * 3.6, C.y() + (uni(rng) - 0.5) * 2.0,
-                                      uni(rng) * 0.2, uni(rng) * 2 * std::numbers::pi};
+      const ips::sim::MarkerPose pose{C.x() + (uni(rng) - 0.5) * 3.6, C.y() + (uni(rng) - 0.5) * 2.0, uni(rng) * 0.2,
+                                      uni(rng) * 2 * std::numbers::pi};
       bool clear = true;
-      for (const auto& p : placed) clear = clear && std::hypot(p.poses[0].x - pose.x, p.poses[0].y - pose.y) > 2 * length;
+      for (const auto& p : placed)
+        clear = clear && std::hypot(p.poses[0].x - pose.x, p.poses[0].y - pose.y) > 2 * length;
       const auto t = renderer.truth_of(m, pose);
       if (!clear || !t.visible) continue;
       placed.push_back({m, {pose}});
@@ -153,10 +152,14 @@ int main(int argc, char** argv) {
     data.push_back(std::move(fr));
   }
 
-  std::printf("bench_small_markers: %d frames, 5 markers of %.3f m each (seed %u), red camera, 1920x1080 JPEG "
-              "q90, single thread, thread CPU time\n", frames, length, seed);
-  std::printf("%-22s | found/expected extra | by side <28 / 28-32 / 32-36 / >=36 px | corner err px "
-              "median / p95 / max | detect ms median / p95\n", "pipeline");
+  std::printf(
+      "bench_small_markers: %d frames, 5 markers of %.3f m each (seed %u), red camera, 1920x1080 JPEG "
+      "q90, single thread, thread CPU time\n",
+      frames, length, seed);
+  std::printf(
+      "%-22s | found/expected extra | by side <28 / 28-32 / 32-36 / >=36 px | corner err px "
+      "median / p95 / max | detect ms median / p95\n",
+      "pipeline");
   struct Set {
     const char* name;
     ips::DetectorOptions options;

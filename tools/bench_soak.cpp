@@ -38,10 +38,10 @@
 #include <map>
 #include <mutex>
 #include <optional>
-#include <tuple>
 #include <random>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -153,17 +153,28 @@ int main(int argc, char** argv) {
   o.emu = build / "tests/libips_v4l2_emu.so";
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
-    if (a == "--seconds") o.seconds = std::stod(v);
-    else if (a == "--fps") o.fps = std::stod(v);
-    else if (a == "--period") o.period = std::stod(v);
-    else if (a == "--gap") o.gap = std::stod(v);
-    else if (a == "--watchdog-sec") o.watchdog_s = std::stod(v);
-    else if (a == "--out") o.out = v;
-    else if (a == "--ipsd") o.ipsd = v;
-    else if (a == "--ips") o.ips = v;
-    else if (a == "--emu") o.emu = v;
-    else if (a == "--nice") o.nice = std::stoi(v);
-    else o.out.clear(), i = argc;
+    if (a == "--seconds")
+      o.seconds = std::stod(v);
+    else if (a == "--fps")
+      o.fps = std::stod(v);
+    else if (a == "--period")
+      o.period = std::stod(v);
+    else if (a == "--gap")
+      o.gap = std::stod(v);
+    else if (a == "--watchdog-sec")
+      o.watchdog_s = std::stod(v);
+    else if (a == "--out")
+      o.out = v;
+    else if (a == "--ipsd")
+      o.ipsd = v;
+    else if (a == "--ips")
+      o.ips = v;
+    else if (a == "--emu")
+      o.emu = v;
+    else if (a == "--nice")
+      o.nice = std::stoi(v);
+    else
+      o.out.clear(), i = argc;
   }
   if (o.out.empty() || argc % 2 == 0 || o.period < 25 || o.fps <= 0 || o.seconds <= 0) {
     std::fprintf(stderr,
@@ -173,7 +184,8 @@ int main(int argc, char** argv) {
   }
   for (const auto& f : {o.ipsd, o.ips, o.emu})
     if (!fs::exists(f)) {
-      std::fprintf(stderr, "bench_soak: %s not found (build ipsd, ips_tool and ips_v4l2_emu, or pass its path)\n", f.c_str());
+      std::fprintf(stderr, "bench_soak: %s not found (build ipsd, ips_tool and ips_v4l2_emu, or pass its path)\n",
+                   f.c_str());
       return 2;
     }
   fs::create_directories(o.out);
@@ -188,8 +200,11 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
   using ips::support::run;
   fs::remove_all(dir / "frames");
-  if (run({ips, "sim", "collect", "--scene", scene.string(), "--points", "20", "--out", (dir / "pairs.csv").string()}, setup_log) != 0 ||
-      run({ips, "fit", "--data", (dir / "pairs.csv").string(), "--method", "plane", "--out", (dir / "model.json").string()}, setup_log) != 0 ||
+  if (run({ips, "sim", "collect", "--scene", scene.string(), "--points", "20", "--out", (dir / "pairs.csv").string()},
+          setup_log) != 0 ||
+      run({ips, "fit", "--data", (dir / "pairs.csv").string(), "--method", "plane", "--out",
+           (dir / "model.json").string()},
+          setup_log) != 0 ||
       run({ips, "sim", "render", "--scene", scene.string(), "--out", (dir / "frames").string(), "--frames",
            std::to_string(static_cast<int>(3 * o.fps)), "--fps", std::to_string(o.fps)},
           setup_log, std::chrono::minutes(10)) != 0) {
@@ -225,19 +240,25 @@ int main(int argc, char** argv) {
     fs::create_directories(dir / "frames" / name);
     for (const auto& e : fs::directory_iterator(dir / "frames"))
       for (const auto& suffix : keep)
-        if (e.path().filename().string() == name + suffix) fs::rename(e.path(), dir / "frames" / name / e.path().filename());
-    devices += (c ? "," : "") + std::string("/dev/video-emu") + std::to_string(c) + "=" + (dir / (name + ".conf")).string();
+        if (e.path().filename().string() == name + suffix)
+          fs::rename(e.path(), dir / "frames" / name / e.path().filename());
+    devices +=
+        (c ? "," : "") + std::string("/dev/video-emu") + std::to_string(c) + "=" + (dir / (name + ".conf")).string();
   }
   auto control = [&](int c, const std::string& present, const std::string& corrupt_every) {
-    write_control(dir / (std::string(kCams[c]) + ".conf"),
-                  {{"formats", "MJPG"}, {"sizes", "1920x1080"}, {"fps", std::to_string(o.fps)},
-                   {"frames", (dir / "frames" / kCams[c]).string()}, {"card", std::string("Emulated ") + kCams[c]},
-                   {"present", present}, {"corrupt_every", corrupt_every}});
+    write_control(dir / (std::string(kCams[c]) + ".conf"), {{"formats", "MJPG"},
+                                                            {"sizes", "1920x1080"},
+                                                            {"fps", std::to_string(o.fps)},
+                                                            {"frames", (dir / "frames" / kCams[c]).string()},
+                                                            {"card", std::string("Emulated ") + kCams[c]},
+                                                            {"present", present},
+                                                            {"corrupt_every", corrupt_every}});
   };
   for (int c = 0; c < kNCams; ++c) control(c, "1", "0");
 
   StreamMonitor monitor(kNCams, static_cast<std::int64_t>(o.gap * 1e9));
-  const std::uint16_t second_port = free_port(SOCK_DGRAM), sub_port = free_port(SOCK_DGRAM), web_port = free_port(SOCK_STREAM);
+  const std::uint16_t second_port = free_port(SOCK_DGRAM), sub_port = free_port(SOCK_DGRAM),
+                      web_port = free_port(SOCK_STREAM);
   int second_fd = udp_socket_on(second_port);
   const std::string status_socket = (dir / "status.sock").string();
   const fs::path config_path = dir / "ipsd.yaml";
@@ -251,9 +272,12 @@ int main(int argc, char** argv) {
     c << "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n    3: {height: 0.0, edge_length: 0.15}\n"
       << "    4: {height: 0.05}\n";
     c << "model_file: " << (v.bad == "missing model" ? "missing_model.json" : "model.json") << "\n";
-    if (v.bad == "unknown key") c << "fusion: {method: mean, windw: 0.02}\n";
-    else if (v.bad == "bad value") c << "fusion: {method: mean, window: -1}\n";
-    else c << "fusion: {method: mean, window: " << v.window << ", max_wait: 0.3}\n";
+    if (v.bad == "unknown key")
+      c << "fusion: {method: mean, windw: 0.02}\n";
+    else if (v.bad == "bad value")
+      c << "fusion: {method: mean, window: -1}\n";
+    else
+      c << "fusion: {method: mean, window: " << v.window << ", max_wait: 0.3}\n";
     c << "outputs:\n"
       << "  - {type: unicast, address: 127.0.0.1, port: " << monitor.port() << ", format: binary}\n"
       << "  - {type: unicast, address: 127.0.0.1, port: " << second_port << ", format: json}\n"
@@ -318,14 +342,16 @@ int main(int argc, char** argv) {
     if (doc.is_object())
       if (const auto cams = doc.find("cameras"); cams != doc.end() && cams->is_array())
         for (std::size_t k = 0; k < cams->size() && k < raw_drops.size(); ++k)
-          for (auto [key, raw, sum] : {std::tuple{"drops", &raw_drops[k], &sum_drops[k]}, std::tuple{"corrupt", &raw_corrupt[k], &sum_corrupt[k]}})
+          for (auto [key, raw, sum] : {std::tuple{"drops", &raw_drops[k], &sum_drops[k]},
+                                       std::tuple{"corrupt", &raw_corrupt[k], &sum_corrupt[k]}})
             if (const auto v = (*cams)[k].find(key); v != (*cams)[k].end() && v->is_number_unsigned()) {
               const auto now = v->get<std::uint64_t>();
               *sum += now >= *raw ? now - *raw : now;
               *raw = now;
             }
     s.camera_drops = sum_drops;
-    for (int k = 0; k < kNCams; ++k) s.drops += sum_drops[static_cast<std::size_t>(k)], s.corrupt += sum_corrupt[static_cast<std::size_t>(k)];
+    for (int k = 0; k < kNCams; ++k)
+      s.drops += sum_drops[static_cast<std::size_t>(k)], s.corrupt += sum_corrupt[static_cast<std::size_t>(k)];
     return s;
   };
   std::atomic<bool> sampling{true};
@@ -354,7 +380,7 @@ int main(int argc, char** argv) {
       const int c = unplug_next++ % kNCams;
       f.detail = kCams[c];
       f.excused[static_cast<std::size_t>(c)] = true;
-      const int back_before = count_lines(log, std::string(kCams[c]) + ": ") ;
+      const int back_before = count_lines(log, std::string(kCams[c]) + ": ");
       control(c, "0", "0");
       sleep_s(10);
       control(c, "1", "0");
@@ -369,8 +395,9 @@ int main(int argc, char** argv) {
       control(c, "1", "0");
       f.end_ns = now_ns();
       const Sample after = sample();
-      f.check = after.corrupt > before.corrupt ? "daemon counted " + std::to_string(after.corrupt - before.corrupt) + " corrupt frames"
-                                               : "NO corrupt frame counted";
+      f.check = after.corrupt > before.corrupt
+                    ? "daemon counted " + std::to_string(after.corrupt - before.corrupt) + " corrupt frames"
+                    : "NO corrupt frame counted";
     } else if (f.kind == "hup-good" || f.kind == "hup-cams" || f.kind == "hup-bad") {
       ConfigVariant v = good;
       std::string expect;
@@ -406,12 +433,13 @@ int main(int argc, char** argv) {
                  std::to_string(st) + " status-socket connections";
       const int code = http_get_status(web_port, "/status.json");
       const auto doc = nlohmann::json::parse(ips::support::read_unix_socket(status_socket), nullptr, false);
-      f.check = "web /status.json " + std::to_string(code) + ", status socket " + (doc.is_object() ? "JSON ok" : "NO JSON");
+      f.check =
+          "web /status.json " + std::to_string(code) + ", status socket " + (doc.is_object() ? "JSON ok" : "NO JSON");
     } else if (f.kind == "listener") {
       const fs::path llog = dir / "listen.log";
       fs::remove(llog);
-      const pid_t l = spawn_with_env({ips, "listen", "--subscribe", "127.0.0.1:" + std::to_string(sub_port), "--lease", "10"}, {},
-                                     llog.string());
+      const pid_t l = spawn_with_env(
+          {ips, "listen", "--subscribe", "127.0.0.1:" + std::to_string(sub_port), "--lease", "10"}, {}, llog.string());
       const bool subscribed = wait_log(llog, "subscribed at", 0, 10);
       sleep_s(3);
       ::kill(l, SIGKILL);
@@ -451,7 +479,8 @@ int main(int argc, char** argv) {
   }
   monitor.stop();
   if (second_fd >= 0) ::close(second_fd);
-  for (std::size_t i = 0; i < report.faults().size(); ++i) report.set_recovery(i, monitor.probe(report.faults()[i].probe));
+  for (std::size_t i = 0; i < report.faults().size(); ++i)
+    report.set_recovery(i, monitor.probe(report.faults()[i].probe));
   report.finish(t_end, early_exit.has_value(), exit_status, monitor.totals(), monitor.gaps(), notify.figures(),
                 final_status, count_lines(log, "AddressSanitizer") + count_lines(log, "runtime error"));
   report.write(fs::absolute(o.out));

@@ -40,6 +40,7 @@ TEST_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium                                 # headless browser for the web view's tests
   clang-14 libclang-rt-14-dev               # the sanitizer build and libFuzzer (fuzz/)
+  clang-format-14                          # the formatting check (.clang-format)
   lintian                                  # tests/package: the .deb checked against Debian policy
 )
 if [ "$layer" = test ]; then PACKAGES+=("${TEST_PACKAGES[@]}"); fi

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The whole test suite, from a fresh Debian 12 machine:
 #   1. install the Debian packages (tools/setup.sh),
-#   2. build the two programs as tools/demo.sh does on a fresh clone (build/programs),
-#   3. build and test the release configuration,
-#   4. build and test again under AddressSanitizer + UBSan, with clang: the fuzz targets (fuzz/)
+#   2. check the formatting of every C and C++ file against .clang-format (clang-format-14),
+#   3. build the two programs as tools/demo.sh does on a fresh clone (build/programs),
+#   4. build and test the release configuration,
+#   5. build and test again under AddressSanitizer + UBSan, with clang: the fuzz targets (fuzz/)
 #      are libFuzzer programs there and each fuzzes for a few seconds (gcc's release build
 #      replays their corpora once).
 # Usage: bash tools/test.sh            (both configurations)
@@ -14,6 +15,10 @@ cd "$(dirname "$0")/.."
 bash tools/setup.sh --test
 
 jobs=$(nproc)
+# Formatting: the tree is formatted with `clang-format-14 -i` (tools/format.sh); a file that
+# differs fails here with the lines clang-format would change.
+echo "=== formatting: clang-format-14 --dry-run --Werror ==="
+bash tools/format.sh --check
 # The users' build first (tools/demo.sh's on a fresh clone: unity batches, no tests), so that the
 # README's first command keeps compiling; ~3 min.
 echo "=== programs: configure + build (build/programs, tools/configure_programs.sh) ==="

@@ -2,8 +2,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <stdexcept>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -58,18 +58,17 @@ int run(const Args& a) {
   ips::cli::write_file_atomically(a.out, svg);
   if (!a.png.empty()) ips::cli::write_file_atomically(a.png, std::string(png.begin(), png.end()));
   const auto l = ips::calib::sheet_layout(board.spec());
-  std::printf("wrote %s (%.1f x %.1f mm sheet; board %s, %.0f x %.0f mm)%s\n", a.out.c_str(),
-              l.page_w_mm, l.page_h_mm, board.spec().str().c_str(), board.spec().width() * 1000,
-              board.spec().height() * 1000,
-              a.png.empty() ? "" : (" and " + a.png + " at " + std::to_string(static_cast<int>(a.dpi)) + " dpi").c_str());
+  std::printf(
+      "wrote %s (%.1f x %.1f mm sheet; board %s, %.0f x %.0f mm)%s\n", a.out.c_str(), l.page_w_mm, l.page_h_mm,
+      board.spec().str().c_str(), board.spec().width() * 1000, board.spec().height() * 1000,
+      a.png.empty() ? "" : (" and " + a.png + " at " + std::to_string(static_cast<int>(a.dpi)) + " dpi").c_str());
   std::printf("print at 100 %% (no 'fit to page') and check that the bar measures 100 mm\n");
   return 0;
 }
 
 std::function<int()> setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
-  sub.add_option("--board", a->board, "Board spec charuco:COLSxROWS:SQUARE_M:MARKER_M[:DICT]")
-      ->capture_default_str();
+  sub.add_option("--board", a->board, "Board spec charuco:COLSxROWS:SQUARE_M:MARKER_M[:DICT]")->capture_default_str();
   sub.add_option("--out", a->out, "SVG file to write (vector, exact size)")->required();
   sub.add_option("--png", a->png, "Also write a PNG raster");
   sub.add_option("--dpi", a->dpi, "PNG resolution, dots per inch")->capture_default_str();

@@ -1,10 +1,10 @@
 // `ips calibrate`: camera intrinsics from ChArUco board views, offline from a directory of
 // images or live from a camera (any frame source: V4L2 device, or a configured camera).
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <cctype>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,10 +18,10 @@
 #include "ips/calib/calibrate.h"
 #include "ips/calib/charuco.h"
 #include "ips/calib/live.h"
-#include "ips/core/clock.h"
 #include "ips/config/config.h"
-#include "ips/core/error.h"
 #include "ips/config/source_factory.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
 
 namespace fs = std::filesystem;
 using namespace ips::calib;
@@ -44,8 +44,8 @@ struct Args {
 bool is_image(const fs::path& p) {
   std::string e = p.extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp" || e == ".tif" ||
-         e == ".tiff" || e == ".pgm" || e == ".ppm";
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp" || e == ".tif" || e == ".tiff" || e == ".pgm" ||
+         e == ".ppm";
 }
 
 std::vector<BoardObservation> observe_directory(const std::string& dir, const Board& board) {
@@ -77,8 +77,7 @@ std::vector<BoardObservation> observe_live(const Args& a, const Board& board, st
   } else {
     // The camera's intrinsics file need not exist yet (this run writes it), nor the model file.
     const ips::DaemonConfig cfg = ips::load_config(a.config, ips::ConfigChecks{false, false});
-    auto it = std::find_if(cfg.cameras.begin(), cfg.cameras.end(),
-                           [&](const auto& c) { return c.name == a.camera; });
+    auto it = std::find_if(cfg.cameras.begin(), cfg.cameras.end(), [&](const auto& c) { return c.name == a.camera; });
     if (it == cfg.cameras.end()) {
       std::string names;
       for (const auto& c : cfg.cameras) names += (names.empty() ? "" : ", ") + c.name;
@@ -90,16 +89,16 @@ std::vector<BoardObservation> observe_live(const Args& a, const Board& board, st
   ctx.synthetic_epoch_mono_ns = ips::monotonic_ns();
   auto source = ips::make_source_factory(cam, ctx)();
   source_name = source->describe();
-  const fs::path views_dir = a.save_views.empty()
-                                 ? fs::path(fs::path(a.out).replace_extension("").string() + "_views")
-                                 : fs::path(a.save_views);
+  const fs::path views_dir = a.save_views.empty() ? fs::path(fs::path(a.out).replace_extension("").string() + "_views")
+                                                  : fs::path(a.save_views);
   try {
     source->open();
   } catch (const ips::SourceError& e) {
     throw ips::InputError(e.what());  // a wrong path or a busy device: nothing was written
   }
-  std::fprintf(stderr, "live calibration from %s: hold the board in view, still, in every part of "
-                       "the image and at several tilts; kept views go to %s\n",
+  std::fprintf(stderr,
+               "live calibration from %s: hold the board in view, still, in every part of "
+               "the image and at several tilts; kept views go to %s\n",
                source_name.c_str(), views_dir.string().c_str());
   std::unique_ptr<ViewSelector> selector;
   ips::Frame frame;
@@ -137,9 +136,8 @@ std::vector<BoardObservation> observe_live(const Args& a, const Board& board, st
       if (selector->done()) break;
     } else if (std::chrono::steady_clock::now() - last_status > std::chrono::seconds(2)) {
       last_status = std::chrono::steady_clock::now();
-      std::fprintf(stderr, "  frame %llu: %s (views kept %zu/%d)\n",
-                   static_cast<unsigned long long>(frames), last_reason.c_str(),
-                   selector->kept().size(), a.views);
+      std::fprintf(stderr, "  frame %llu: %s (views kept %zu/%d)\n", static_cast<unsigned long long>(frames),
+                   last_reason.c_str(), selector->kept().size(), a.views);
     }
   }
   source->close();
@@ -172,8 +170,7 @@ int run(const Args& a) {
 
   // Human-readable report (stderr when --json takes stdout).
   FILE* out = a.json ? stderr : stdout;
-  std::fprintf(out, "%s calibration from %zu image(s), board %s\n", a.model.c_str(), obs.size(),
-               spec.str().c_str());
+  std::fprintf(out, "%s calibration from %zu image(s), board %s\n", a.model.c_str(), obs.size(), spec.str().c_str());
   for (const auto& v : r.views) {
     std::fprintf(out, "  %-28s %3d corners  ", v.name.c_str(), v.corners);
     if (!v.residual.empty()) std::fprintf(out, "RMS %6.3f px  ", v.rms);
@@ -181,8 +178,8 @@ int run(const Args& a) {
     std::fprintf(out, "%s\n", v.used ? "" : ("NOT USED: " + v.why).c_str());
   }
   std::fprintf(out, "RMS reprojection error %.3f px over %d views\n", r.rms, r.used_views);
-  std::fprintf(out, "coverage %.0f%% of a %dx%d grid; largest field angle covered %.1f deg\n",
-               100 * r.coverage, r.grid.width, r.grid.height, r.max_field_deg);
+  std::fprintf(out, "coverage %.0f%% of a %dx%d grid; largest field angle covered %.1f deg\n", 100 * r.coverage,
+               r.grid.width, r.grid.height, r.max_field_deg);
   if (r.turn_back_deg) {
     std::fprintf(out,
                  "the fitted fisheye polynomial turns back at %.1f deg (image radius %.0f px): pixels "
@@ -226,8 +223,7 @@ std::function<int()> setup(CLI::App& sub) {
   sub.add_option("--device", a->device, "Live: V4L2 device, e.g. /dev/v4l/by-id/...");
   sub.add_option("--config", a->config, "Live: ipsd config whose camera --camera to use");
   sub.add_option("--camera", a->camera, "Live: camera name in --config");
-  sub.add_option("--board", a->board, "Board spec charuco:COLSxROWS:SQUARE_M:MARKER_M[:DICT]")
-      ->capture_default_str();
+  sub.add_option("--board", a->board, "Board spec charuco:COLSxROWS:SQUARE_M:MARKER_M[:DICT]")->capture_default_str();
   sub.add_option("--model", a->model, "fisheye | pinhole (rational model)")->capture_default_str();
   sub.add_option("--out", a->out, "Intrinsics YAML to write")->required();
   sub.add_option("--report", a->report, "Report PNG: coverage and magnified residuals");
@@ -236,8 +232,7 @@ std::function<int()> setup(CLI::App& sub) {
   sub.add_option("--truth", a->truth, "True intrinsics (simulation): print how far the result projects from them");
   sub.add_option("--views", a->views, "Live: views to keep")->capture_default_str();
   sub.add_option("--save-views", a->save_views, "Live: directory for the kept views (default: OUT_views)");
-  sub.add_option("--max-seconds", a->max_seconds, "Live: give up collecting after this long")
-      ->capture_default_str();
+  sub.add_option("--max-seconds", a->max_seconds, "Live: give up collecting after this long")->capture_default_str();
   sub.add_option("--min-views", a->min_views, "Fewest usable views to calibrate from")->capture_default_str();
   sub.add_option("--magnify", a->magnify, "Report: residual vector magnification")->capture_default_str();
   return [a] { return run(*a); };

@@ -24,13 +24,13 @@
 #include "collect_placement.h"
 #include "command.h"
 #include "image_io.h"
-#include "ips/core/clock.h"
 #include "ips/collect/collect.h"
 #include "ips/config/config.h"
-#include "ips/detect/detector.h"
-#include "ips/core/error.h"
-#include "ips/geometry/marker_geometry.h"
 #include "ips/config/source_factory.h"
+#include "ips/core/clock.h"
+#include "ips/core/error.h"
+#include "ips/detect/detector.h"
+#include "ips/geometry/marker_geometry.h"
 
 namespace fs = std::filesystem;
 
@@ -85,8 +85,7 @@ void print_help(bool have_points, bool have_refs) {
     say("    d DA DB Z [left|right]  floor distances from reference A and from B to the point under the\n"
         "                         marker's centre, and its height; the side of the line A->B is found by the\n"
         "                         cameras once they have 4 pairs, or give it (seen from A looking at B)\n");
-  if (have_points)
-    say("    (Enter)              the listed position as it is;  s  skip the listed position\n");
+  if (have_points) say("    (Enter)              the listed position as it is;  s  skip the listed position\n");
   say("    u                    undo the last placement;  q  quit (every placement is saved at once);  ?  help\n");
 }
 
@@ -116,11 +115,10 @@ References check_references(const Args& a) {
 
 // --marker must be in the configured dictionary.
 void check_marker(const Args& a, const DaemonConfig& config) {
-  const int dict_size =
-      cv::aruco::getPredefinedDictionary(dictionary_id(config.detection.dictionary))->bytesList.rows;
+  const int dict_size = cv::aruco::getPredefinedDictionary(dictionary_id(config.detection.dictionary))->bytesList.rows;
   if (a.marker >= dict_size)
-    throw InputError("--marker " + std::to_string(a.marker) + ": not in " +
-                     config.detection.dictionary + " (0.." + std::to_string(dict_size - 1) + ")");
+    throw InputError("--marker " + std::to_string(a.marker) + ": not in " + config.detection.dictionary + " (0.." +
+                     std::to_string(dict_size - 1) + ")");
 }
 
 // The cameras of `config` named by --camera, in that order; all of them without --camera.
@@ -133,8 +131,7 @@ std::vector<const CameraConfig*> select_cameras(const Args& a, const DaemonConfi
       if (c.name == name) found = &c;
       names += (names.empty() ? "" : ", ") + c.name;
     }
-    if (found == nullptr)
-      throw InputError("--camera " + name + ": not in " + a.config + " (cameras: " + names + ")");
+    if (found == nullptr) throw InputError("--camera " + name + ": not in " + a.config + " (cameras: " + names + ")");
     selected.push_back(found);
   }
   if (a.cameras.empty())
@@ -167,8 +164,8 @@ bool open_pairs(const std::string& out_name, collect::PairsFile& pairs) {
 }
 
 // ---- The cameras, as the daemon runs them.
-std::vector<CameraRun> open_cameras(const std::vector<const CameraConfig*>& selected,
-                                    const DaemonConfig& config, int marker) {
+std::vector<CameraRun> open_cameras(const std::vector<const CameraConfig*>& selected, const DaemonConfig& config,
+                                    int marker) {
   SourceContext context;
   context.synthetic_epoch_mono_ns = monotonic_ns();
   std::vector<CameraRun> cams;
@@ -183,18 +180,17 @@ void print_start(const Session& s, const DaemonConfig& config, bool resumed) {
   std::string cam_names;
   for (const auto& c : s.cams) cam_names += (cam_names.empty() ? "" : ", ") + c.name;
   char head[300];
-  std::snprintf(head, sizeof head,
-                "ips collect: marker %d (%s, %.3f m), %d frames per placement, cameras: %s\n",
-                s.a.marker, config.detection.dictionary.c_str(),
-                config.markers.sizes().length_of(s.a.marker), s.a.frames, cam_names.c_str());
+  std::snprintf(head, sizeof head, "ips collect: marker %d (%s, %.3f m), %d frames per placement, cameras: %s\n",
+                s.a.marker, config.detection.dictionary.c_str(), config.markers.sizes().length_of(s.a.marker),
+                s.a.frames, cam_names.c_str());
   say(head);
   say("pairs file: " + s.a.out +
-      (resumed ? " (resumed: " + std::to_string(s.pairs.placements().size()) +
-                     " placement(s); pairs " + counts_text(s.pairs, s.cams) + ")\n"
+      (resumed ? " (resumed: " + std::to_string(s.pairs.placements().size()) + " placement(s); pairs " +
+                     counts_text(s.pairs, s.cams) + ")\n"
                : " (new)\n"));
   if (s.refs.given)
-    say("reference points: A " + xyz({s.refs.a.x(), s.refs.a.y(), 0}) + ", B " +
-        xyz({s.refs.b.x(), s.refs.b.y(), 0}) + "\n");
+    say("reference points: A " + xyz({s.refs.a.x(), s.refs.a.y(), 0}) + ", B " + xyz({s.refs.b.x(), s.refs.b.y(), 0}) +
+        "\n");
   print_help(!s.listed.empty(), s.refs.given);
 }
 
@@ -220,8 +216,8 @@ void prompt(const Session& s, long target) {
   const std::size_t number = s.pairs.placements().size() + 1;
   if (target >= 0) {
     say("placement " + std::to_string(number) + ": put the marker at " +
-        xyz(s.listed[static_cast<std::size_t>(target)]) + " (listed " + std::to_string(target + 1) +
-        "/" + std::to_string(s.listed.size()) + "), Enter when it lies still > ");
+        xyz(s.listed[static_cast<std::size_t>(target)]) + " (listed " + std::to_string(target + 1) + "/" +
+        std::to_string(s.listed.size()) + "), Enter when it lies still > ");
   } else {
     say("placement " + std::to_string(number) + ": position > ");
   }
@@ -236,8 +232,8 @@ void undo(Session& s) {
   save(s);
   std::string which;
   for (const auto& c : removed.cameras) which += (which.empty() ? "" : ", ") + c.first;
-  say("  undone: the placement at " + xyz(removed.world) + " (" + which + "); pairs " +
-      counts_text(s.pairs, s.cams) + "\n");
+  say("  undone: the placement at " + xyz(removed.world) + " (" + which + "); pairs " + counts_text(s.pairs, s.cams) +
+      "\n");
 }
 
 void skip(Session& s, long target) {
@@ -256,17 +252,10 @@ enum class Next { kPrompt, kQuit, kRead };
 // found after the cameras are read).
 Next handle_entry(Session& s, const Entry& e, long target, Eigen::Vector3d& world) {
   switch (e.kind) {
-    case Entry::Kind::kHelp:
-      print_help(!s.listed.empty(), s.refs.given);
-      return Next::kPrompt;
-    case Entry::Kind::kQuit:
-      return Next::kQuit;
-    case Entry::Kind::kUndo:
-      undo(s);
-      return Next::kPrompt;
-    case Entry::Kind::kSkip:
-      skip(s, target);
-      return Next::kPrompt;
+    case Entry::Kind::kHelp: print_help(!s.listed.empty(), s.refs.given); return Next::kPrompt;
+    case Entry::Kind::kQuit: return Next::kQuit;
+    case Entry::Kind::kUndo: undo(s); return Next::kPrompt;
+    case Entry::Kind::kSkip: skip(s, target); return Next::kPrompt;
     case Entry::Kind::kAccept:
       if (target < 0) {
         say("  type the marker's position (x y z in metres), or ? for help\n");
@@ -274,9 +263,7 @@ Next handle_entry(Session& s, const Entry& e, long target, Eigen::Vector3d& worl
       }
       world = s.listed[static_cast<std::size_t>(target)];
       return Next::kRead;
-    case Entry::Kind::kPosition:
-      world = e.position;
-      return Next::kRead;
+    case Entry::Kind::kPosition: world = e.position; return Next::kRead;
     case Entry::Kind::kDistances:
       if (!s.refs.given) {
         say("  distances need the reference points: start with --ref-a X Y --ref-b X Y\n");
@@ -302,8 +289,8 @@ bool do_entry(Session& s, const Entry& e, long target, std::int64_t entered_ns) 
   placement.world = world;
   s.pairs.add(placement);
   save(s);
-  say("  recorded placement " + std::to_string(s.pairs.placements().size()) + " at " + xyz(world) +
-      "; pairs " + counts_text(s.pairs, s.cams) + "\n");
+  say("  recorded placement " + std::to_string(s.pairs.placements().size()) + " at " + xyz(world) + "; pairs " +
+      counts_text(s.pairs, s.cams) + "\n");
   return true;
 }
 
@@ -352,30 +339,24 @@ int run(const Args& a) {
   while (placement_step(s)) {
   }
   for (auto& c : s.cams) c.source->close();
-  say("done: " + std::to_string(s.pairs.placements().size()) + " placement(s) in " + a.out +
-      "; pairs " + counts_text(s.pairs, s.cams) + "\n");
+  say("done: " + std::to_string(s.pairs.placements().size()) + " placement(s) in " + a.out + "; pairs " +
+      counts_text(s.pairs, s.cams) + "\n");
   return 0;
 }
 
 IPS_REGISTER_COMMAND(
-    "collect",
-    "Calibration pairs from live cameras: place the marker, type its world position, repeat",
+    "collect", "Calibration pairs from live cameras: place the marker, type its world position, repeat",
     [](CLI::App& sub) -> std::function<int()> {
       auto a = std::make_shared<Args>();
       sub.add_option("--config", a->config,
                      "ipsd configuration: its cameras (any source), intrinsics, markers and detection")
           ->required();
       sub.add_option("--marker", a->marker, "Id of the calibration marker")->required();
-      sub.add_option("--out", a->out,
-                     "Pairs CSV (camera,xc,yc,zc,xw,yw,zw); an existing file is resumed")
-          ->required();
-      sub.add_option("--frames", a->frames, "Frames read per camera and placement")
-          ->capture_default_str();
+      sub.add_option("--out", a->out, "Pairs CSV (camera,xc,yc,zc,xw,yw,zw); an existing file is resumed")->required();
+      sub.add_option("--frames", a->frames, "Frames read per camera and placement")->capture_default_str();
       sub.add_option("--camera", a->cameras, "Only these cameras (repeatable; default all)");
-      sub.add_option("--points", a->points,
-                     "CSV of world positions to place the marker at (columns xw,yw,zw)");
-      sub.add_option("--ref-a", a->ref_a, "Reference point A on the floor, X Y metres (for d entries)")
-          ->expected(2);
+      sub.add_option("--points", a->points, "CSV of world positions to place the marker at (columns xw,yw,zw)");
+      sub.add_option("--ref-a", a->ref_a, "Reference point A on the floor, X Y metres (for d entries)")->expected(2);
       sub.add_option("--ref-b", a->ref_b, "Reference point B on the floor, X Y metres")->expected(2);
       sub.add_option("--max-spread", a->max_spread,
                      "Refuse a placement where a frame's camera coordinates lie further than this "

@@ -8,9 +8,9 @@
 
 #include "command.h"
 #include "error_table.h"
+#include "ips/core/error.h"
 #include "ips/mapping/calib_data.h"
 #include "ips/mapping/cross_validation.h"
-#include "ips/core/error.h"
 
 namespace ips::cli {
 namespace cmd_compare {  // named, not anonymous: unique in a unity build
@@ -24,13 +24,10 @@ std::function<int()> setup(CLI::App& sub) {
   };
   auto args = std::make_shared<Args>();
   sub.add_option("--train", args->train, "calibration CSV to fit on")->required();
-  sub.add_option("--test", args->test,
-                 "held-out calibration CSV to score on (default: cross-validate)");
+  sub.add_option("--test", args->test, "held-out calibration CSV to score on (default: cross-validate)");
   auto* folds =
-      sub.add_option("--folds", args->folds, "k of k-fold cross-validation (without --test)")
-          ->capture_default_str();
-  sub.add_flag("--loo", args->loo, "leave-one-out cross-validation (without --test)")
-      ->excludes(folds);
+      sub.add_option("--folds", args->folds, "k of k-fold cross-validation (without --test)")->capture_default_str();
+  sub.add_flag("--loo", args->loo, "leave-one-out cross-validation (without --test)")->excludes(folds);
   sub.add_flag("--json", args->json, "print JSON (metres) instead of the tables (cm)");
   sub.add_option("--seed", args->seed, "seed of the stochastic fits (ann)")->capture_default_str();
   return [args] {
@@ -45,10 +42,10 @@ std::function<int()> setup(CLI::App& sub) {
       for (const auto& set : test.cameras) require_camera(train, set.camera);
     }
     const CalibData& scored = held_out ? test : train;
-    const std::string mode = held_out ? "held-out on " + test.source
-                                      : (args->loo ? std::string("leave-one-out")
-                                                   : std::to_string(args->folds) + "-fold") +
-                                            " cross-validation";
+    const std::string mode =
+        held_out
+            ? "held-out on " + test.source
+            : (args->loo ? std::string("leave-one-out") : std::to_string(args->folds) + "-fold") + " cross-validation";
     nlohmann::json doc = {{"mode", mode}, {"cameras", nlohmann::json::object()}};
     if (!args->json) std::printf("%s, fitted on %s\n", mode.c_str(), train.source.c_str());
     for (const auto& set : scored.cameras) {
@@ -78,9 +75,8 @@ std::function<int()> setup(CLI::App& sub) {
       }
       doc["cameras"][set.camera] = cam_doc;
       if (!args->json) {
-        std::printf(
-            "\ncamera %s (%zu training pairs%s)\n", set.camera.c_str(), fit_set.cam.size(),
-            held_out ? (", " + std::to_string(set.cam.size()) + " test pairs").c_str() : "");
+        std::printf("\ncamera %s (%zu training pairs%s)\n", set.camera.c_str(), fit_set.cam.size(),
+                    held_out ? (", " + std::to_string(set.cam.size()) + " test pairs").c_str() : "");
         print_error_table("method", rows);
         for (const auto& s : skipped) std::printf("  skipped %s\n", s.c_str());
       }
@@ -90,9 +86,8 @@ std::function<int()> setup(CLI::App& sub) {
   };
 }
 
-IPS_REGISTER_COMMAND(
-    "compare",
-    "Compare every mapping method per camera (held-out with --test, else cross-validated)", setup);
+IPS_REGISTER_COMMAND("compare", "Compare every mapping method per camera (held-out with --test, else cross-validated)",
+                     setup);
 
 }  // namespace cmd_compare
 }  // namespace ips::cli

@@ -4,9 +4,9 @@
 
 #include "command.h"
 #include "error_table.h"
+#include "ips/core/error.h"
 #include "ips/mapping/calib_data.h"
 #include "ips/mapping/cross_validation.h"
-#include "ips/core/error.h"
 #include "ips/mapping/model_file.h"
 
 namespace ips::cli {
@@ -30,11 +30,10 @@ std::function<int()> setup(CLI::App& sub) {
       if (mapper == nullptr) {
         std::string have;
         for (const auto& [name, entry] : models.cameras) have += (have.empty() ? "" : ", ") + name;
-        throw InputError(data.source + ":" + std::to_string(set.lines.front()) + ": camera '" +
-                         set.camera + "' is not in " + args->model + " (it has: " + have + ")");
+        throw InputError(data.source + ":" + std::to_string(set.lines.front()) + ": camera '" + set.camera +
+                         "' is not in " + args->model + " (it has: " + have + ")");
       }
-      rows.emplace_back(set.camera,
-                        compare_points(predict_points(*mapper, set.cam, set.world), set.world));
+      rows.emplace_back(set.camera, compare_points(predict_points(*mapper, set.cam, set.world), set.world));
     }
     if (args->json) {
       print_error_json(rows);
@@ -46,9 +45,7 @@ std::function<int()> setup(CLI::App& sub) {
   };
 }
 
-IPS_REGISTER_COMMAND("eval",
-                     "Evaluate a model file on calibration pairs: 3D and 2D error per camera",
-                     setup);
+IPS_REGISTER_COMMAND("eval", "Evaluate a model file on calibration pairs: 3D and 2D error per camera", setup);
 
 }  // namespace cmd_eval
 }  // namespace ips::cli

@@ -1,7 +1,7 @@
 // `ips listen`: receive the position stream (binary or JSON, detected per datagram), print
-// live positions with rate and age per marker (and per rigid body, version 2); malformed datagrams are counted and warned about.
-// With --subscribe, asks a daemon's `subscriptions` output for a unicast stream to this socket
-// (cookie exchange, renewals, unsubscribe at the end: include/ips/output/wire.h).
+// live positions with rate and age per marker (and per rigid body, version 2); malformed datagrams are counted and
+// warned about. With --subscribe, asks a daemon's `subscriptions` output for a unicast stream to this socket (cookie
+// exchange, renewals, unsubscribe at the end: include/ips/output/wire.h).
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -9,8 +9,8 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <deque>
@@ -31,13 +31,13 @@ void on_signal(int) { g_stop = 1; }
 
 struct ListenOptions {
   std::string bind = "0.0.0.0:5005";
-  std::string group;       // multicast group:port; replaces --bind
-  std::string interface;   // local IPv4 address of the interface to join the group on
-  bool json = false;       // print every decoded datagram as one JSON line
-  double interval_s = 1.0; // table refresh period
-  long count = 0;          // stop after this many valid datagrams (0 = never)
-  double duration_s = 0;   // stop after this many seconds (0 = never)
-  std::string subscribe;   // daemon ADDR:PORT of a subscriptions output; "" = just listen
+  std::string group;               // multicast group:port; replaces --bind
+  std::string interface;           // local IPv4 address of the interface to join the group on
+  bool json = false;               // print every decoded datagram as one JSON line
+  double interval_s = 1.0;         // table refresh period
+  long count = 0;                  // stop after this many valid datagrams (0 = never)
+  double duration_s = 0;           // stop after this many seconds (0 = never)
+  std::string subscribe;           // daemon ADDR:PORT of a subscriptions output; "" = just listen
   std::vector<std::uint32_t> ids;  // with --subscribe: wanted marker ids (none = all)
   std::string format = "binary";   // with --subscribe: the stream's format
   int lease_s = 30;                // with --subscribe: requested lease
@@ -47,7 +47,8 @@ struct ListenOptions {
 
 sockaddr_in parse_endpoint(const std::string& text, const char* option) {
   const auto colon = text.rfind(':');
-  if (colon == std::string::npos) throw ips::InputError(std::string(option) + ": expected ADDR:PORT, got '" + text + "'");
+  if (colon == std::string::npos)
+    throw ips::InputError(std::string(option) + ": expected ADDR:PORT, got '" + text + "'");
   sockaddr_in a{};
   a.sin_family = AF_INET;
   const std::string host = text.substr(0, colon);
@@ -75,7 +76,7 @@ int open_socket(const ListenOptions& o) {
   if (fd < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
   const int on = 1;
   ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &on, sizeof on);  // several listeners on one port
-  const int rcvbuf = 1 << 20;  // bursts of datagrams while we print
+  const int rcvbuf = 1 << 20;                                  // bursts of datagrams while we print
   ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
   sockaddr_in bind_addr = addr;
   if (multicast) bind_addr.sin_addr.s_addr = htonl(INADDR_ANY);
@@ -106,7 +107,8 @@ struct BodyView {
   std::deque<std::int64_t> arrivals;
 };
 
-void print_rate_age(std::deque<std::int64_t>& arrivals, std::int64_t capture_real_ns, std::int64_t now, std::int64_t real) {
+void print_rate_age(std::deque<std::int64_t>& arrivals, std::int64_t capture_real_ns, std::int64_t now,
+                    std::int64_t real) {
   while (!arrivals.empty() && now - arrivals.front() > 1'000'000'000) arrivals.pop_front();
   std::printf("  %5.1f Hz  age %7.1f ms", static_cast<double>(arrivals.size()),
               1e-6 * static_cast<double>(real - capture_real_ns));
@@ -123,7 +125,8 @@ int run_listen(ListenOptions o) {
     r.format = ips::parse_wire_format(o.format, "--format");
     r.all = o.ids.empty();
     r.ids = o.ids;
-    if (o.ids.size() > IPS_SUB_MAX_IDS) throw ips::InputError("--ids: at most " + std::to_string(IPS_SUB_MAX_IDS) + " ids");
+    if (o.ids.size() > IPS_SUB_MAX_IDS)
+      throw ips::InputError("--ids: at most " + std::to_string(IPS_SUB_MAX_IDS) + " ids");
     if (o.lease_s < 1 || o.lease_s > 65535) throw ips::InputError("--lease: must be 1..65535 s");
     r.lease_s = static_cast<std::uint16_t>(o.lease_s);
     client.emplace(r, o.psk);
@@ -133,7 +136,10 @@ int run_listen(ListenOptions o) {
   std::signal(SIGTERM, on_signal);
   std::fprintf(stderr, "ips listen: %s %s (Ctrl-C to stop)\n",
                client ? "subscribing at" : (o.group.empty() ? "listening on" : "joined"),
-               (client ? o.subscribe : o.group.empty() ? o.bind : o.group).c_str());
+               (client            ? o.subscribe
+                : o.group.empty() ? o.bind
+                                  : o.group)
+                   .c_str());
   auto send_to_daemon = [&](const std::vector<std::uint8_t>& b) {
     ::sendto(fd, b.data(), b.size(), MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&daemon), sizeof daemon);
   };
@@ -159,8 +165,8 @@ int run_listen(ListenOptions o) {
                   bodies.size(), bodies.size() == 1 ? "y" : "ies", static_cast<unsigned long long>(valid),
                   static_cast<unsigned long long>(malformed), static_cast<unsigned long long>(lost));
       for (auto& [id, v] : markers) {
-        std::printf("id %4u  x %8.3f  y %8.3f  z %7.3f m  yaw %7.1f deg  cams 0x%02x", id, v.last.x, v.last.y,
-                    v.last.z, v.last.yaw * 180.0 / std::numbers::pi, v.last.camera_mask);
+        std::printf("id %4u  x %8.3f  y %8.3f  z %7.3f m  yaw %7.1f deg  cams 0x%02x", id, v.last.x, v.last.y, v.last.z,
+                    v.last.yaw * 180.0 / std::numbers::pi, v.last.camera_mask);
         print_rate_age(v.arrivals, v.capture_real_ns, now, real);
         if (v.last.vx != 0 || v.last.vy != 0) std::printf("  v (%.2f, %.2f) m/s", v.last.vx, v.last.vy);
         std::printf("\n");
@@ -249,20 +255,25 @@ int run_listen(ListenOptions o) {
 }
 
 IPS_REGISTER_COMMAND(
-    "listen", "Receive and print the ipsd position stream (binary or JSON)",
-    [](CLI::App& sub) -> std::function<int()> {
+    "listen", "Receive and print the ipsd position stream (binary or JSON)", [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<ListenOptions>();
-      auto* bind = sub.add_option("--bind", o->bind, "ADDR:PORT to receive unicast/broadcast on (with --subscribe: default any free port)")->capture_default_str();
+      auto* bind = sub.add_option("--bind", o->bind,
+                                  "ADDR:PORT to receive unicast/broadcast on (with --subscribe: default any free port)")
+                       ->capture_default_str();
       sub.add_option("--group", o->group, "multicast GROUP:PORT to join instead of --bind")->excludes(bind);
       sub.add_option("--interface", o->interface, "with --group: IPv4 address of the interface to join on");
       sub.add_flag("--json", o->json, "print every datagram as one JSON line (the stream's JSON form)");
-      sub.add_option("--interval", o->interval_s, "seconds between table refreshes")->capture_default_str()->check(CLI::PositiveNumber);
+      sub.add_option("--interval", o->interval_s, "seconds between table refreshes")
+          ->capture_default_str()
+          ->check(CLI::PositiveNumber);
       sub.add_option("--count", o->count, "stop after N valid datagrams (0 = never)")->check(CLI::NonNegativeNumber);
       sub.add_option("--duration", o->duration_s, "stop after S seconds (0 = never)")->check(CLI::NonNegativeNumber);
-      sub.add_option("--subscribe", o->subscribe, "ADDR:PORT of a daemon's subscriptions output: ask it for a unicast stream");
+      sub.add_option("--subscribe", o->subscribe,
+                     "ADDR:PORT of a daemon's subscriptions output: ask it for a unicast stream");
       sub.add_option("--ids", o->ids, "with --subscribe: marker ids wanted (default all)")->delimiter(',');
       sub.add_option("--format", o->format, "with --subscribe: binary | json")->capture_default_str();
-      sub.add_option("--lease", o->lease_s, "with --subscribe: lease to ask for, seconds (renewed at a third)")->capture_default_str();
+      sub.add_option("--lease", o->lease_s, "with --subscribe: lease to ask for, seconds (renewed at a third)")
+          ->capture_default_str();
       sub.add_option("--psk", o->psk, "with --subscribe: the output's pre-shared key");
       return [=] {
         o->bind_given = bind->count() > 0;

@@ -10,10 +10,10 @@
 
 #include "command.h"
 #include "image_io.h"
-#include "ips/geometry/camera_model.h"
 #include "ips/config/config.h"
-#include "ips/detect/detector.h"
 #include "ips/core/error.h"
+#include "ips/detect/detector.h"
+#include "ips/geometry/camera_model.h"
 #include "ips/geometry/marker_geometry.h"
 #include "ips/mapping/model_file.h"
 
@@ -85,21 +85,18 @@ int run_locate(const LocateArgs& a) {
   ips::ModelSet models;
   const ips::Mapper* mapper = nullptr;
   if (!a.model.empty()) {
-    if (a.camera.empty())
-      throw ips::InputError("--model needs --camera NAME (the camera's entry in the model file)");
+    if (a.camera.empty()) throw ips::InputError("--model needs --camera NAME (the camera's entry in the model file)");
     models = ips::load_model_file(a.model);
     mapper = models.find(a.camera);
-    if (mapper == nullptr)
-      throw ips::InputError(a.model + ": no model for camera '" + a.camera + "'");
+    if (mapper == nullptr) throw ips::InputError(a.model + ": no model for camera '" + a.camera + "'");
   } else if (!a.camera.empty()) {
     throw ips::InputError("--camera is only used with --model");
   }
   ips::Detector detector(options);
   if (gray.size() != camera.size()) {
-    throw ips::InputError(a.image + ": image is " + std::to_string(gray.cols) + "x" +
-                          std::to_string(gray.rows) + " but the intrinsics " + a.intrinsics +
-                          " are for " + std::to_string(camera.size().width) + "x" +
-                          std::to_string(camera.size().height));
+    throw ips::InputError(a.image + ": image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                          " but the intrinsics " + a.intrinsics + " are for " + std::to_string(camera.size().width) +
+                          "x" + std::to_string(camera.size().height));
   }
   // A guessed model would bend the fitted edges wrongly: refine in pixels then.
   const auto found = detector.detect(gray, guessed ? nullptr : &camera);
@@ -109,31 +106,27 @@ int run_locate(const LocateArgs& a) {
     const auto o = ips::locate_marker(d, camera, sizes.length_of(d.id));
     if (!std::isfinite(o.p_cam.z())) continue;  // a corner outside the lens model
     Eigen::Vector3d world = Eigen::Vector3d::Constant(std::nan(""));
-    if (mapper != nullptr)
-      world = mapper->predict(o.p_cam, mapper->needs_height() ? a.height : ips::Mapper::kNoHeight);
+    if (mapper != nullptr) world = mapper->predict(o.p_cam, mapper->needs_height() ? a.height : ips::Mapper::kNoHeight);
     if (a.json) {
       nlohmann::json corners = nlohmann::json::array();
       for (const auto& c : o.corners_px) corners.push_back({c.x, c.y});
-      nlohmann::json m{{"id", o.id},        {"corners", corners},     {"xc", o.p_cam.x()},
-                       {"yc", o.p_cam.y()}, {"zc", o.p_cam.z()},      {"yaw", o.yaw},
-                       {"area", o.area_px}, {"length", o.edge_length}};
+      nlohmann::json m{{"id", o.id},        {"corners", corners}, {"xc", o.p_cam.x()}, {"yc", o.p_cam.y()},
+                       {"zc", o.p_cam.z()}, {"yaw", o.yaw},       {"area", o.area_px}, {"length", o.edge_length}};
       if (mapper != nullptr) m["world"] = {world.x(), world.y(), world.z()};
       markers.push_back(m);
     } else {
-      std::printf("id %3d  xc %+.4f  yc %+.4f  zc %.4f m  yaw %+7.2f deg  area %8.1f px^2", o.id,
-                  o.p_cam.x(), o.p_cam.y(), o.p_cam.z(), o.yaw * 180.0 / M_PI, o.area_px);
-      if (mapper != nullptr)
-        std::printf("  world %.4f %.4f %.4f m", world.x(), world.y(), world.z());
+      std::printf("id %3d  xc %+.4f  yc %+.4f  zc %.4f m  yaw %+7.2f deg  area %8.1f px^2", o.id, o.p_cam.x(),
+                  o.p_cam.y(), o.p_cam.z(), o.yaw * 180.0 / M_PI, o.area_px);
+      if (mapper != nullptr) std::printf("  world %.4f %.4f %.4f m", world.x(), world.y(), world.z());
       std::printf("  corners");
       for (const auto& c : o.corners_px) std::printf(" (%.2f, %.2f)", c.x, c.y);
       std::printf("\n");
     }
   }
   if (a.json) {
-    std::printf("%s\n",
-                nlohmann::json{{"markers", markers}, {"intrinsics", guessed ? "guessed" : a.intrinsics}}
-                    .dump()
-                    .c_str());
+    std::printf(
+        "%s\n",
+        nlohmann::json{{"markers", markers}, {"intrinsics", guessed ? "guessed" : a.intrinsics}}.dump().c_str());
   }
   return 0;
 }
@@ -146,10 +139,9 @@ IPS_REGISTER_COMMAND(
       sub.add_option("--intrinsics", a->intrinsics,
                      "Camera intrinsics (ipsd YAML or OpenCV calibration file); without it a "
                      "generic pinhole guess (ids and pixel corners exact, coordinates rough)");
-      auto* length = sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")
-                         ->capture_default_str();
-      auto* size = sub.add_option("--marker-size", a->marker_sizes,
-                                  "Per-marker edge length ID=METRES (repeatable)");
+      auto* length =
+          sub.add_option("--marker-length", a->marker_length, "Marker edge length, metres")->capture_default_str();
+      auto* size = sub.add_option("--marker-size", a->marker_sizes, "Per-marker edge length ID=METRES (repeatable)");
       auto* dict = sub.add_option("--dictionary", a->dictionary, "ArUco dictionary")->capture_default_str();
       sub.add_option("--config", a->config,
                      "An ipsd configuration: use its markers and detection settings (instead of "
@@ -159,8 +151,7 @@ IPS_REGISTER_COMMAND(
           ->excludes(dict);
       sub.add_option("--model", a->model, "Model file: also print world coordinates");
       sub.add_option("--camera", a->camera, "The camera's name in the model file");
-      sub.add_option("--height", a->height,
-                     "Marker height for mappers that need it (plane), metres")
+      sub.add_option("--height", a->height, "Marker height for mappers that need it (plane), metres")
           ->capture_default_str();
       sub.add_flag("--json", a->json, "Print JSON instead of text");
       return [a] { return run_locate(*a); };

@@ -20,8 +20,8 @@
 #include "collect_cameras.h"
 #include "command.h"
 #include "image_io.h"
-#include "ips/core/clock.h"
 #include "ips/config/config.h"
+#include "ips/core/clock.h"
 #include "ips/core/error.h"
 #include "ips/survey/survey.h"
 
@@ -42,8 +42,7 @@ struct Counters {
   std::string problem;
 };
 
-void record_camera(CameraRun& cam, const fs::path& file, std::int64_t start_ns, std::int64_t end_ns,
-                   Counters& count) {
+void record_camera(CameraRun& cam, const fs::path& file, std::int64_t start_ns, std::int64_t end_ns, Counters& count) {
   std::ofstream out(file, std::ios::app);
   out << "# camera " << cam.name << ": t_ns id x0 y0 x1 y1 x2 y2 x3 y3 (t_ns since the session start)\n";
   Frame f;
@@ -95,8 +94,7 @@ void record_camera(CameraRun& cam, const fs::path& file, std::int64_t start_ns, 
 
 int run(const Args& a) {
   if (!(a.seconds > 0 && a.seconds <= 3600)) throw InputError("--seconds: must be in (0, 3600]");
-  const DaemonConfig config =
-      load_config(a.config, ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
+  const DaemonConfig config = load_config(a.config, ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
   const fs::path dir = a.out;
   if (fs::exists(dir / "session.txt"))
     throw InputError("--out " + a.out + ": already holds a session (session.txt); choose another directory");
@@ -121,9 +119,10 @@ int run(const Args& a) {
   for (const auto& c : cams) session.cameras.push_back({c.name, c.name + ".det", {}});
   write_file_atomically(dir / "session.txt", survey::session_header(session));
 
-  std::printf("ips record: %zu camera(s) for %.0f s into %s; walk the wand through every view, pausing "
-              "~1 s now and then where two cameras see it\n",
-              cams.size(), a.seconds, a.out.c_str());
+  std::printf(
+      "ips record: %zu camera(s) for %.0f s into %s; walk the wand through every view, pausing "
+      "~1 s now and then where two cameras see it\n",
+      cams.size(), a.seconds, a.out.c_str());
   std::fflush(stdout);
   const std::int64_t start = monotonic_ns();
   const std::int64_t end = start + static_cast<std::int64_t>(a.seconds * 1e9);

@@ -50,8 +50,8 @@ int run(const Args& a) {
   opt.tilt_max_deg = a.tilt_max;
   const auto views = ips::sim::generate_board_views(renderer, opt);
   if (views.size() < static_cast<std::size_t>(a.views)) {
-    throw std::runtime_error("could place only " + std::to_string(views.size()) + " of " +
-                             std::to_string(a.views) + " board views in camera " + a.camera);
+    throw std::runtime_error("could place only " + std::to_string(views.size()) + " of " + std::to_string(a.views) +
+                             " board views in camera " + a.camera);
   }
   fs::create_directories(a.out);
   const auto& model = camera.camera().model;
@@ -88,8 +88,7 @@ int run(const Args& a) {
     cv::Rodrigues(R, rvec);
     nlohmann::json corners = nlohmann::json::array();
     for (std::size_t i = 0; i < v.truth.corners_px.size(); ++i) {
-      if (v.truth.visible[i])
-        corners.push_back({i, v.truth.corners_px[i].x, v.truth.corners_px[i].y});
+      if (v.truth.visible[i]) corners.push_back({i, v.truth.corners_px[i].x, v.truth.corners_px[i].y});
     }
     truth["views"].push_back({{"image", file},
                               {"rvec", {rvec[0], rvec[1], rvec[2]}},
@@ -98,11 +97,10 @@ int run(const Args& a) {
                               {"gradient", v.look.gradient},
                               {"corners", corners}});
   }
-  ips::cli::write_file_atomically(fs::path(a.out) / "true_intrinsics.yaml",
-                                  ips::calib::model_yaml(model));
+  ips::cli::write_file_atomically(fs::path(a.out) / "true_intrinsics.yaml", ips::calib::model_yaml(model));
   ips::cli::write_file_atomically(fs::path(a.out) / "truth.json", truth.dump(1) + "\n");
-  std::printf("wrote %zu board views of camera %s (%s) to %s\n", views.size(), a.camera.c_str(),
-              spec.str().c_str(), a.out.c_str());
+  std::printf("wrote %zu board views of camera %s (%s) to %s\n", views.size(), a.camera.c_str(), spec.str().c_str(),
+              a.out.c_str());
   return 0;
 }
 
@@ -113,19 +111,15 @@ std::function<int()> setup(CLI::App& sub) {
   sub.add_option("--out", a->out, "Output directory (created): view_NNN.jpg, truth.json, true_intrinsics.yaml")
       ->required();
   sub.add_option("--views", a->views, "Number of views")->capture_default_str();
-  sub.add_option("--board", a->board, "Board spec charuco:COLSxROWS:SQUARE:MARKER[:DICT]")
-      ->capture_default_str();
+  sub.add_option("--board", a->board, "Board spec charuco:COLSxROWS:SQUARE:MARKER[:DICT]")->capture_default_str();
   sub.add_option("--seed", a->seed, "Random seed of the poses")->capture_default_str();
-  sub.add_option("--max-blur", a->max_blur, "Defocus sigma drawn from [0, this], pixels")
-      ->capture_default_str();
+  sub.add_option("--max-blur", a->max_blur, "Defocus sigma drawn from [0, this], pixels")->capture_default_str();
   sub.add_option("--max-tilt", a->tilt_max, "Largest board tilt, degrees")->capture_default_str();
-  sub.add_option("--paper-margin", a->paper, "White paper around the board, metres")
-      ->capture_default_str();
+  sub.add_option("--paper-margin", a->paper, "White paper around the board, metres")->capture_default_str();
   return [a] { return run(*a); };
 }
 
-IPS_REGISTER_SIM_COMMAND("board-views",
-                         "Render the ChArUco board at many poses in front of a scene camera, with truth",
+IPS_REGISTER_SIM_COMMAND("board-views", "Render the ChArUco board at many poses in front of a scene camera, with truth",
                          setup);
 
 }  // namespace cmd_sim_board_views

@@ -10,8 +10,8 @@
 #include <cstdio>
 #include <cstring>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/fmt/fmt.h>
+#include <nlohmann/json.hpp>
 
 #include "command.h"
 #include "ips/core/error.h"
@@ -75,9 +75,10 @@ int run_status(const StatusOptions& o) {
     const auto& v = j.value(key, nlohmann::json::object());
     return v.contains(p) && v[p].is_number() ? fmt::format("{:.1f}", v[p].get<double>()) : std::string("-");
   };
-  std::printf("  latency: processing (delivered -> sendto) p50 %s p99 %s ms, capture (capture -> sendto) p50 %s p99 %s ms\n",
-              ms("processing_latency_ms", "p50").c_str(), ms("processing_latency_ms", "p99").c_str(),
-              ms("capture_latency_ms", "p50").c_str(), ms("capture_latency_ms", "p99").c_str());
+  std::printf(
+      "  latency: processing (delivered -> sendto) p50 %s p99 %s ms, capture (capture -> sendto) p50 %s p99 %s ms\n",
+      ms("processing_latency_ms", "p50").c_str(), ms("processing_latency_ms", "p99").c_str(),
+      ms("capture_latency_ms", "p50").c_str(), ms("capture_latency_ms", "p99").c_str());
   for (const auto& c : j.value("cameras", nlohmann::json::array())) {
     std::printf("  %-10s %-5s %5.1f fps  detect %5.1f ms  %4.1f markers  drops %llu  corrupt %llu  errors %llu  %s\n",
                 c.value("name", "?").c_str(), c.value("state", "?").c_str(), c.value("fps", 0.0),

@@ -11,9 +11,9 @@
 
 #include "command.h"
 #include "ips/config/config.h"
+#include "ips/config/source_factory.h"
 #include "ips/core/error.h"
 #include "ips/mapping/model_file.h"
-#include "ips/config/source_factory.h"
 #include "ips/survey/survey.h"
 
 namespace fs = std::filesystem;
@@ -40,7 +40,8 @@ int run(const Args& a) {
   const auto refs = survey::load_references(a.references);
   survey::Session session = survey::load_session(a.session);
   const std::string config_path = a.config.empty() ? session.config : a.config;
-  const DaemonConfig config = load_config(config_path, ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
+  const DaemonConfig config =
+      load_config(config_path, ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
 
   // The session's cameras must be this config's, with the same lenses.
   survey::SurveyInput input;
@@ -92,9 +93,9 @@ int run(const Args& a) {
               "sigma x/y/z mm");
   ModelSet set;
   for (const auto& c : result.cameras) {
-    std::printf("%-12s %9.4f %9.4f %9.4f %8.3f %6d %5d %8.2f %6.2f %6.2f\n", c.name.c_str(), c.centre.x(),
-                c.centre.y(), c.centre.z(), c.rms_px, c.observations, c.references_seen, c.sigma.x() * 1e3,
-                c.sigma.y() * 1e3, c.sigma.z() * 1e3);
+    std::printf("%-12s %9.4f %9.4f %9.4f %8.3f %6d %5d %8.2f %6.2f %6.2f\n", c.name.c_str(), c.centre.x(), c.centre.y(),
+                c.centre.z(), c.rms_px, c.observations, c.references_seen, c.sigma.x() * 1e3, c.sigma.y() * 1e3,
+                c.sigma.z() * 1e3);
     nlohmann::json params = {{"R", nlohmann::json::array()},
                              {"t", {c.centre.x(), c.centre.y(), c.centre.z()}},
                              {"radial_terms", 0},
@@ -113,8 +114,9 @@ int run(const Args& a) {
     if (!c.covariance_ok) entry.training["sigma_centre_m"] = nullptr;
     set.cameras[c.model] = std::move(entry);
   }
-  std::printf("references: where each camera puts them minus the known position, in the fit and with the\n"
-              "survey solved without that reference (left out: how well the references agree):\n");
+  std::printf(
+      "references: where each camera puts them minus the known position, in the fit and with the\n"
+      "survey solved without that reference (left out: how well the references agree):\n");
   for (const auto& r : result.references)
     for (const auto& [name, e] : r.residual) {
       const auto lo = r.left_out.find(name);

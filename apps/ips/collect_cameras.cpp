@@ -32,8 +32,8 @@ Capture capture(CameraRun& c, int marker, int n, std::int64_t after_ns) {
   Frame f;
   while (out.frames < n) {
     if (std::chrono::steady_clock::now() > deadline) {
-      out.problem = "only " + std::to_string(out.frames) + " of " + std::to_string(n) +
-                    " frames within " + std::to_string(static_cast<int>(limit.count())) + " s";
+      out.problem = "only " + std::to_string(out.frames) + " of " + std::to_string(n) + " frames within " +
+                    std::to_string(static_cast<int>(limit.count())) + " s";
       break;
     }
     FrameSource::ReadStatus status;
@@ -54,9 +54,8 @@ Capture capture(CameraRun& c, int marker, int n, std::int64_t after_ns) {
     }
     if (status != FrameSource::ReadStatus::kFrame || f.t_mono_ns < after_ns) continue;
     if (f.gray.size() != c.model.size()) {
-      out.problem = "frames are " + std::to_string(f.gray.cols) + "x" +
-                    std::to_string(f.gray.rows) + " but the intrinsics are for " +
-                    std::to_string(c.model.size().width) + "x" +
+      out.problem = "frames are " + std::to_string(f.gray.cols) + "x" + std::to_string(f.gray.rows) +
+                    " but the intrinsics are for " + std::to_string(c.model.size().width) + "x" +
                     std::to_string(c.model.size().height);
       break;
     }
@@ -70,6 +69,5 @@ Capture capture(CameraRun& c, int marker, int n, std::int64_t after_ns) {
   }
   return out;
 }
-
 
 }  // namespace ips::cli

@@ -9,11 +9,11 @@
 
 #include <Eigen/Core>
 
-#include "ips/geometry/camera_model.h"
-#include "ips/config/config.h"
-#include "ips/detect/detector.h"
 #include "ips/capture/frame_source.h"
+#include "ips/config/config.h"
 #include "ips/config/source_factory.h"
+#include "ips/detect/detector.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips::cli {
 

@@ -34,19 +34,18 @@ struct ReadOptions {
 // (CLOCK_MONOTONIC), all at once, and prints one line per camera. Returns false, after
 // printing why, when the placement is refused: the marker moved, or no camera saw it
 // steadily. Otherwise adds each camera that saw it steadily to `placement.cameras`.
-bool read_placement(std::vector<CameraRun>& cams, const ReadOptions& options,
-                    std::int64_t entered_ns, collect::Placement& placement);
+bool read_placement(std::vector<CameraRun>& cams, const ReadOptions& options, std::int64_t entered_ns,
+                    collect::Placement& placement);
 
 // The two floor positions at distances `e.d_a` from `ref_a` and `e.d_b` from `ref_b`. Returns
 // false, after printing why, when there are none.
-bool distance_candidates(const Eigen::Vector2d& ref_a, const Eigen::Vector2d& ref_b,
-                         const collect::Entry& e, std::array<Eigen::Vector2d, 2>& candidates);
+bool distance_candidates(const Eigen::Vector2d& ref_a, const Eigen::Vector2d& ref_b, const collect::Entry& e,
+                         std::array<Eigen::Vector2d, 2>& candidates);
 
 // The world position of a distances entry `e`: the candidate on the side typed, else on the
 // side the cameras of `placement` tell from their earlier pairs in `pairs`; printed. Returns
 // false, after printing why, when the side is not typed and no camera can tell yet.
-bool place_from_distances(const collect::PairsFile& pairs, const collect::Placement& placement,
-                          const collect::Entry& e,
+bool place_from_distances(const collect::PairsFile& pairs, const collect::Placement& placement, const collect::Entry& e,
                           const std::array<Eigen::Vector2d, 2>& candidates, Eigen::Vector3d& world);
 
 }  // namespace cmd_collect

@@ -39,7 +39,11 @@ struct SimRegistrar {
 
 #define IPS_CONCAT_INNER(a, b) a##b
 #define IPS_CONCAT(a, b) IPS_CONCAT_INNER(a, b)
-#define IPS_REGISTER_COMMAND(name, help, setup) \
-  static const ::ips::cli::Registrar IPS_CONCAT(ips_command_, __COUNTER__){{name, help, setup}}
-#define IPS_REGISTER_SIM_COMMAND(name, help, setup) \
-  static const ::ips::cli::SimRegistrar IPS_CONCAT(ips_sim_command_, __COUNTER__){{name, help, setup}}
+#define IPS_REGISTER_COMMAND(name, help, setup)                              \
+  static const ::ips::cli::Registrar IPS_CONCAT(ips_command_, __COUNTER__) { \
+    { name, help, setup }                                                    \
+  }
+#define IPS_REGISTER_SIM_COMMAND(name, help, setup)                                 \
+  static const ::ips::cli::SimRegistrar IPS_CONCAT(ips_sim_command_, __COUNTER__) { \
+    { name, help, setup }                                                           \
+  }

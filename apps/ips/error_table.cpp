@@ -20,10 +20,9 @@ void print_cm(double metres) {
 }  // namespace
 
 void print_error_table(const std::string& label_header, const ErrorRows& rows) {
-  std::printf("%-10s %4s | %-31s | %-31s\n", label_header.c_str(), "n", "3D error (cm)",
-              "2D error (cm)");
-  std::printf("%-10s %4s | %7s %7s %7s %7s | %7s %7s %7s %7s\n", "", "", "mean", "min", "max",
-              "std", "mean", "min", "max", "std");
+  std::printf("%-10s %4s | %-31s | %-31s\n", label_header.c_str(), "n", "3D error (cm)", "2D error (cm)");
+  std::printf("%-10s %4s | %7s %7s %7s %7s | %7s %7s %7s %7s\n", "", "", "mean", "min", "max", "std", "mean", "min",
+              "max", "std");
   for (const auto& [label, e] : rows) {
     std::printf("%-10s %4zu |", label.c_str(), e.n);
     for (double v : {e.err3d.mean, e.err3d.min, e.err3d.max, e.err3d.std}) print_cm(v);
@@ -43,8 +42,7 @@ void print_error_json(const ErrorRows& rows) {
 const CalibSet& require_camera(const CalibData& data, const std::string& camera) {
   const CalibSet* set = data.find(camera);
   if (set == nullptr)
-    throw InputError(data.source + ": no pairs for camera '" + camera +
-                     "' (the file has: " + data.camera_list() + ")");
+    throw InputError(data.source + ": no pairs for camera '" + camera + "' (the file has: " + data.camera_list() + ")");
   return *set;
 }
 

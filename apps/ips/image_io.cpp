@@ -8,16 +8,15 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "ips/core/error.h"
 #include "ips/capture/jpeg_decoder.h"
+#include "ips/core/error.h"
 
 namespace ips::cli {
 
 cv::Mat read_gray_image(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string() + ": cannot open image");
-  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
-                                        std::istreambuf_iterator<char>());
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (bytes.empty()) throw InputError(path.string() + ": empty file, not an image");
   cv::Mat gray;
   if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
@@ -32,8 +31,7 @@ cv::Mat read_gray_image(const std::filesystem::path& path) {
   } catch (const cv::Exception& e) {
     throw InputError(path.string() + ": cannot decode image: " + e.msg);
   }
-  if (gray.empty())
-    throw InputError(path.string() + ": not a readable image (JPEG, PNG, BMP, TIFF, ...)");
+  if (gray.empty()) throw InputError(path.string() + ": not a readable image (JPEG, PNG, BMP, TIFF, ...)");
   return gray;
 }
 

@@ -24,8 +24,7 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|off")->capture_default_str();
 
   auto& commands = ips::cli::registry();
-  std::sort(commands.begin(), commands.end(),
-            [](const auto& a, const auto& b) { return a.name < b.name; });
+  std::sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
   std::vector<std::pair<CLI::App*, std::function<int()>>> runs;
   for (const auto& command : commands) {
     CLI::App* sub = app.add_subcommand(command.name, command.help);

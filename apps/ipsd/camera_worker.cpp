@@ -67,13 +67,13 @@ void CameraWorker::run() {
     if (supervisor_.failures() != reported_failures) {
       reported_failures = supervisor_.failures();
       stats_.failures = reported_failures;
-      have_sequence = false;  // a reopened source restarts its counter
+      have_sequence = false;              // a reopened source restarts its counter
       if (detector_) detector_->reset();  // and may show anything: search in full
       std::lock_guard lock(stats_.error_mutex);
       stats_.last_error = supervisor_.last_error();
     }
     stats_.state = static_cast<int>(supervisor_.state() == ips::SourceSupervisor::State::kOpen ? CameraState::kOpen
-                                                                                                : CameraState::kDown);
+                                                                                               : CameraState::kDown);
     if (status == ips::FrameSource::ReadStatus::kCorrupt) {
       ++stats_.corrupt;
       continue;
@@ -116,7 +116,8 @@ void CameraWorker::process(ips::Frame& frame) {
   const bool watched = tap_ && tap_->wanted();
   std::vector<ips::MarkerDetection> detections;
   if (!detector_->detect(frame, &intrinsics, watched, detections)) {
-    if (stats_.corrupt++ == 0) spdlog::warn("{}: {}; such frames are skipped and counted", config_.name, detector_->error());
+    if (stats_.corrupt++ == 0)
+      spdlog::warn("{}: {}; such frames are skipped and counted", config_.name, detector_->error());
     return;
   }
   if (watched) tap_->offer(frame.gray, detections, frame.sequence, frame.t_mono_ns);
@@ -150,25 +151,22 @@ void CameraWorker::observe(const Runtime& rt, const ips::MarkerDetection& d, con
     if (rt.bodies->observe(cam, mapper, index, frame.t_mono_ns, frame.t_real_ns, view, &why)) {
       batch.bodies.push_back(std::move(view));
     } else if (stats_.body_rejected++ == 0) {
-      spdlog::info("{}: marker {} of a body gave no body view ({}); such views are skipped and counted",
-                   config_.name, d.id, why);
+      spdlog::info("{}: marker {} of a body gave no body view ({}); such views are skipped and counted", config_.name,
+                   d.id, why);
     }
     return;
   }
   ips::WorldObservation w;
-  switch (ips::map_marker(cam, mapper, rt.config.markers.height_of(d.id), index, frame.t_mono_ns, frame.t_real_ns,
-                          w)) {
-    case ips::MappedMarker::kMapped:
-      batch.observations.push_back(w);
-      break;
+  switch (ips::map_marker(cam, mapper, rt.config.markers.height_of(d.id), index, frame.t_mono_ns, frame.t_real_ns, w)) {
+    case ips::MappedMarker::kMapped: batch.observations.push_back(w); break;
     case ips::MappedMarker::kNoHeight:
       if (stats_.no_height++ == 0)
-        spdlog::warn("{}: marker {} has no known height and the '{}' mapper needs one (markers.ids.{}.height); "
-                     "such markers are dropped and counted",
-                     config_.name, d.id, mapper.method(), d.id);
+        spdlog::warn(
+            "{}: marker {} has no known height and the '{}' mapper needs one (markers.ids.{}.height); "
+            "such markers are dropped and counted",
+            config_.name, d.id, mapper.method(), d.id);
       break;
-    case ips::MappedMarker::kDegenerate:
-      break;  // degenerate corners
+    case ips::MappedMarker::kDegenerate: break;  // degenerate corners
   }
 }
 

@@ -6,10 +6,10 @@
 #include <memory>
 #include <thread>
 
-#include "ips/detect/detector.h"
 #include "ips/capture/source_supervisor.h"
-#include "ips/web/web.h"
+#include "ips/detect/detector.h"
 #include "ips/detect/tracked_frame_detector.h"
+#include "ips/web/web.h"
 #include "pipeline.h"
 
 namespace ipsd {

@@ -12,9 +12,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include "ips/config/source_factory.h"
 #include "ips/core/clock.h"
 #include "ips/core/error.h"
-#include "ips/config/source_factory.h"
 #include "signals.h"
 #include "web_link.h"
 
@@ -22,7 +22,7 @@ namespace ipsd {
 
 namespace {
 constexpr std::int64_t kSampleNs = 1'000'000'000;  // rates and STATUS= refresh period
-constexpr int kPollMs = 100;                        // main loop wake-up period
+constexpr int kPollMs = 100;                       // main loop wake-up period
 // main.cpp keeps freed memory in glibc's arenas (no trimming: faulting image buffers in again on
 // every frame cost ~10 % CPU). Frames are steady, but a fault is not: a camera reopened
 // (unplug/replug) or a restarted camera thread set allocates in whatever arena its thread gets,
@@ -78,8 +78,9 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
     p->names.push_back(cam.name);
   }
   for (const auto& cam : config.cameras) {
-    p->cameras.push_back(std::make_unique<CameraWorker>(cam, std::move(factories[static_cast<std::size_t>(cam.index)]), runtime_,
-                                                        p->queue, *p->camera_stats[static_cast<std::size_t>(cam.index)]));
+    p->cameras.push_back(std::make_unique<CameraWorker>(cam, std::move(factories[static_cast<std::size_t>(cam.index)]),
+                                                        runtime_, p->queue,
+                                                        *p->camera_stats[static_cast<std::size_t>(cam.index)]));
   }
   runtime_.set(std::move(runtime));
   // Open every camera once before anything runs: a required camera that is absent stops the
@@ -132,8 +133,9 @@ void Daemon::reload() {
     }
     if (config.web != old->config.web) spdlog::warn("reload: web.* changes take effect when ipsd restarts");
     if (config.outputs != old->config.outputs)
-      spdlog::warn("reload: outputs changed: every output is opened anew (sequence numbers restart, subscribers are "
-                   "dropped until they renew their lease)");
+      spdlog::warn(
+          "reload: outputs changed: every output is opened anew (sequence numbers restart, subscribers are "
+          "dropped until they renew their lease)");
     if (config.cameras == old->config.cameras) {
       runtime_.set(fresh);  // the threads pick it up at their next frame
       if (web_) web_->set_layout(web_layout(*fresh));
@@ -188,7 +190,8 @@ void Daemon::tick(std::int64_t now) {
       if (stalled_) spdlog::info("watchdog: every thread is making progress again");
       stalled_ = false;
     } else if (!stalled_) {
-      spdlog::error("watchdog: no progress for {:.1f} s in:{}; withholding WATCHDOG=1", rt->config.stall_timeout_s, stuck);
+      spdlog::error("watchdog: no progress for {:.1f} s in:{}; withholding WATCHDOG=1", rt->config.stall_timeout_s,
+                    stuck);
       stalled_ = true;
     }
   }
@@ -235,14 +238,19 @@ int Daemon::run() {
                  rt->config.fusion.method, rt->config.outputs.size());
     // bodies: published as body records, stream version 2 (docs/bodies.md).
     if (!rt->config.bodies.empty())
-      spdlog::info("bodies: {} configured; the stream is protocol version 2 (body records; their markers are not "
-                   "published as plain markers)", rt->config.bodies.size());
+      spdlog::info(
+          "bodies: {} configured; the stream is protocol version 2 (body records; their markers are not "
+          "published as plain markers)",
+          rt->config.bodies.size());
   }
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   sd_notify(0, "READY=1\nSTATUS=running");
   next_sample_ns_ = started_ns_ + kSampleNs;
   next_trim_ns_ = started_ns_ + kTrimNs;
-  next_status_log_ns_ = started_ns_ + static_cast<std::int64_t>((runtime_.get()->config.status.interval_s > 0 ? runtime_.get()->config.status.interval_s : 10.0) * 1e9);
+  next_status_log_ns_ =
+      started_ns_ +
+      static_cast<std::int64_t>(
+          (runtime_.get()->config.status.interval_s > 0 ? runtime_.get()->config.status.interval_s : 10.0) * 1e9);
 
   bool running = true;
   while (running) {

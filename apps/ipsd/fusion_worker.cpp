@@ -46,7 +46,9 @@ void log_events(const std::vector<ips::FixedMarkerEvent>& events, const ips::Dae
   }
 }
 
-ips::BodyTrackOptions body_options(const ips::FusionConfig& c) { return {static_cast<const ips::FusionTimeWindows&>(c)}; }
+ips::BodyTrackOptions body_options(const ips::FusionConfig& c) {
+  return {static_cast<const ips::FusionTimeWindows&>(c)};
+}
 
 // A reload rebuilds the body fusion only when the bodies or the options it uses changed.
 bool same_bodies(const std::vector<ips::BodyDef>& a, const std::vector<ips::BodyDef>& b) {
@@ -136,8 +138,7 @@ void FusionWorker::run() {
     if (period > 0 && next_tick == 0) next_tick = now + period;
     if (period == 0) next_tick = 0;
 
-    const std::int64_t wait =
-        period > 0 ? std::clamp<std::int64_t>(next_tick - now, 0, kPopTimeoutNs) : kPopTimeoutNs;
+    const std::int64_t wait = period > 0 ? std::clamp<std::int64_t>(next_tick - now, 0, kPopTimeoutNs) : kPopTimeoutNs;
     CameraBatch batch;
     if (queue_.pop(batch, wait)) {
       // Each camera's own view of the fixed markers, before fusion mixes the cameras.
@@ -231,7 +232,7 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     d.bodies.push_back(std::move(b));
   }
   rt.publisher->publish(d);
-  if (web_) web_->publish(d);  // a copy into a bounded inbox; never waits for browsers
+  if (web_) web_->publish(d);                     // a copy into a bounded inbox; never waits for browsers
   const std::int64_t sent = ips::monotonic_ns();  // after the last sendto of the update
   if (t_delivered_ns > 0) stats_.latency.add(sent - t_delivered_ns, sent - t_mono_ns);
   ++stats_.updates;

@@ -4,8 +4,8 @@
 #include <chrono>
 #include <cmath>
 
-#include "ips/core/error.h"
 #include "ips/config/source_factory.h"
+#include "ips/core/error.h"
 
 namespace ipsd {
 

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "ips/body/body_estimate.h"
-#include "ips/geometry/camera_model.h"
 #include "ips/config/config.h"
 #include "ips/fusion/fusion.h"
+#include "ips/geometry/camera_model.h"
 #include "ips/mapping/model_file.h"
 #include "ips/output/publisher.h"
 
@@ -27,8 +27,8 @@ namespace ipsd {
 struct Runtime {
   ips::DaemonConfig config;
   std::shared_ptr<const ips::ModelSet> models;
-  std::vector<ips::CameraModel> intrinsics;   ///< by camera index
-  std::vector<const ips::Mapper*> mappers;    ///< by camera index, owned by *models
+  std::vector<ips::CameraModel> intrinsics;  ///< by camera index
+  std::vector<const ips::Mapper*> mappers;   ///< by camera index, owned by *models
   ips::MarkerSizes sizes;
   const ips::FusionMethod* fusion = nullptr;
   std::shared_ptr<ips::Publisher> publisher;
@@ -90,19 +90,19 @@ enum class CameraState : int { kStarting = 0, kOpen = 1, kDown = 2 };
 
 /// Counters of one camera thread (written by it, read by the main thread).
 struct CameraStats {
-  std::atomic<std::uint64_t> frames{0};        ///< frames processed
-  std::atomic<std::uint64_t> drops{0};         ///< frames skipped to stay on the newest + source sequence gaps
-  std::atomic<std::uint64_t> corrupt{0};       ///< undecodable frames
-  std::atomic<std::uint64_t> failures{0};      ///< source failures (open errors, unplug, end)
-  std::atomic<std::uint64_t> detect_ns{0};     ///< sum of detect+locate+map time
-  std::atomic<std::uint64_t> markers{0};       ///< sum of markers mapped
-  std::atomic<std::uint64_t> no_height{0};     ///< markers dropped: the mapper needs a height, none configured
-  std::atomic<std::uint64_t> body_rejected{0}; ///< body markers whose view gave no body observation
-  std::atomic<std::int64_t> heartbeat_ns{0};   ///< CLOCK_MONOTONIC of the last loop iteration
-  std::atomic<int> state{0};                   ///< CameraState
+  std::atomic<std::uint64_t> frames{0};         ///< frames processed
+  std::atomic<std::uint64_t> drops{0};          ///< frames skipped to stay on the newest + source sequence gaps
+  std::atomic<std::uint64_t> corrupt{0};        ///< undecodable frames
+  std::atomic<std::uint64_t> failures{0};       ///< source failures (open errors, unplug, end)
+  std::atomic<std::uint64_t> detect_ns{0};      ///< sum of detect+locate+map time
+  std::atomic<std::uint64_t> markers{0};        ///< sum of markers mapped
+  std::atomic<std::uint64_t> no_height{0};      ///< markers dropped: the mapper needs a height, none configured
+  std::atomic<std::uint64_t> body_rejected{0};  ///< body markers whose view gave no body observation
+  std::atomic<std::int64_t> heartbeat_ns{0};    ///< CLOCK_MONOTONIC of the last loop iteration
+  std::atomic<int> state{0};                    ///< CameraState
   std::mutex error_mutex;
   std::string last_error;
-  std::string source;                           ///< description of the source
+  std::string source;  ///< description of the source
 };
 
 /// Latency samples of one status interval: the fusion thread adds, the main thread rotates
@@ -134,9 +134,9 @@ struct FusionStats {
   std::atomic<std::uint64_t> updates{0};
   std::atomic<std::int64_t> heartbeat_ns{0};
   std::atomic<std::int64_t> last_latency_ns{0};  ///< capture -> sendto of the last datagram
-  std::atomic<std::uint64_t> late{0};     ///< observations that arrived after a newer output of their marker
-  std::atomic<std::uint64_t> too_old{0};  ///< observations dropped: older than fusion.history
-  LatencyWindow latency;                  ///< delivered -> sendto and capture -> sendto
+  std::atomic<std::uint64_t> late{0};            ///< observations that arrived after a newer output of their marker
+  std::atomic<std::uint64_t> too_old{0};         ///< observations dropped: older than fusion.history
+  LatencyWindow latency;                         ///< delivered -> sendto and capture -> sendto
   std::mutex outputs_mutex;
   std::vector<ips::OutputStats> outputs;
 };

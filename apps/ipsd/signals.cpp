@@ -35,8 +35,9 @@ bool daemon_signals_blocked() {
 
 int open_daemon_signalfd() {
   if (!daemon_signals_blocked())
-    throw std::logic_error("ipsd: SIGTERM/SIGINT/SIGHUP are not blocked in the main thread (block_daemon_signals() "
-                           "must run in main() before any thread starts)");
+    throw std::logic_error(
+        "ipsd: SIGTERM/SIGINT/SIGHUP are not blocked in the main thread (block_daemon_signals() "
+        "must run in main() before any thread starts)");
   const sigset_t set = daemon_signals();
   const int fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
   if (fd < 0) throw std::runtime_error(std::string("signalfd: ") + std::strerror(errno));

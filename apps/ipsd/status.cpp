@@ -41,7 +41,9 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
     r.no_height = s.no_height;
     r.body_rejected = s.body_rejected;
     const int state = s.state;
-    r.state = state == static_cast<int>(CameraState::kOpen) ? "open" : state == static_cast<int>(CameraState::kDown) ? "down" : "starting";
+    r.state = state == static_cast<int>(CameraState::kOpen)   ? "open"
+              : state == static_cast<int>(CameraState::kDown) ? "down"
+                                                              : "starting";
     std::lock_guard lock(s.error_mutex);
     r.last_error = s.last_error;
     r.source = s.source;
@@ -55,8 +57,9 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
 std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fusion, std::uint64_t queue_drops) {
   std::vector<std::string> lines;
   for (const auto& c : rates.cameras()) {
-    std::string line = fmt::format("{}: {:.1f} fps, detect {:.1f} ms, {:.1f} markers, drops {}, corrupt {}, errors {}, {}",
-                                   c.name, c.fps, c.detect_ms, c.markers, c.drops, c.corrupt, c.failures, c.state);
+    std::string line =
+        fmt::format("{}: {:.1f} fps, detect {:.1f} ms, {:.1f} markers, drops {}, corrupt {}, errors {}, {}", c.name,
+                    c.fps, c.detect_ms, c.markers, c.drops, c.corrupt, c.failures, c.state);
     if (c.no_height) line += fmt::format(", {} without height", c.no_height);
     if (c.body_rejected) line += fmt::format(", {} body views rejected", c.body_rejected);
     if (c.state != "open" && !c.last_error.empty()) line += " (" + c.last_error + ")";
@@ -65,10 +68,11 @@ std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fus
   const auto proc = fusion.latency.processing();
   const auto cap = fusion.latency.capture();
   std::string out = fmt::format(
-      "fusion: {:.1f} updates/s, processing latency p50 {:.1f} p99 {:.1f} ms, capture latency p50 {:.1f} p99 {:.1f} ms, "
+      "fusion: {:.1f} updates/s, processing latency p50 {:.1f} p99 {:.1f} ms, capture latency p50 {:.1f} p99 {:.1f} "
+      "ms, "
       "late {}, too old {}, queue drops {}",
-      rates.updates_per_s(), proc.p50_ms, proc.p99_ms, cap.p50_ms, cap.p99_ms, fusion.late.load(), fusion.too_old.load(),
-      queue_drops);
+      rates.updates_per_s(), proc.p50_ms, proc.p99_ms, cap.p50_ms, cap.p99_ms, fusion.late.load(),
+      fusion.too_old.load(), queue_drops);
   std::lock_guard lock(fusion.outputs_mutex);
   for (const auto& o : fusion.outputs) {
     out += fmt::format("; {}: sent {}, errors {}", o.description, o.datagrams, o.send_errors);
@@ -116,10 +120,18 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
   j["queue_drops"] = queue_drops;
   j["cameras"] = nlohmann::json::array();
   for (const auto& c : rates.cameras()) {
-    j["cameras"].push_back({{"name", c.name}, {"source", c.source}, {"state", c.state}, {"fps", c.fps},
-                            {"detect_ms", c.detect_ms}, {"markers", c.markers}, {"frames", c.frames},
-                            {"drops", c.drops}, {"corrupt", c.corrupt}, {"errors", c.failures},
-                            {"no_height", c.no_height}, {"body_rejected", c.body_rejected},
+    j["cameras"].push_back({{"name", c.name},
+                            {"source", c.source},
+                            {"state", c.state},
+                            {"fps", c.fps},
+                            {"detect_ms", c.detect_ms},
+                            {"markers", c.markers},
+                            {"frames", c.frames},
+                            {"drops", c.drops},
+                            {"corrupt", c.corrupt},
+                            {"errors", c.failures},
+                            {"no_height", c.no_height},
+                            {"body_rejected", c.body_rejected},
                             {"last_error", c.last_error},
                             {"detect_s_total", 1e-9 * static_cast<double>(c.detect_ns_total)},
                             {"markers_total", c.markers_total}});
@@ -127,8 +139,8 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
   j["outputs"] = nlohmann::json::array();
   std::lock_guard lock(fusion.outputs_mutex);
   for (const auto& o : fusion.outputs) {
-    j["outputs"].push_back({{"output", o.description}, {"datagrams", o.datagrams}, {"bytes", o.bytes},
-                            {"send_errors", o.send_errors}});
+    j["outputs"].push_back(
+        {{"output", o.description}, {"datagrams", o.datagrams}, {"bytes", o.bytes}, {"send_errors", o.send_errors}});
     for (const auto& [name, value] : o.counters) j["outputs"].back()[name] = value;
   }
   return j;

@@ -16,11 +16,11 @@ namespace ipsd {
 struct CameraRates {
   std::string name;
   std::string source;
-  std::string state;      ///< "open" | "down" | "starting"
+  std::string state;  ///< "open" | "down" | "starting"
   std::string last_error;
-  double fps = 0;         ///< frames processed per second over the last sample period
-  double detect_ms = 0;   ///< mean detect+locate+map time per frame, ms
-  double markers = 0;     ///< mean markers per frame
+  double fps = 0;        ///< frames processed per second over the last sample period
+  double detect_ms = 0;  ///< mean detect+locate+map time per frame, ms
+  double markers = 0;    ///< mean markers per frame
   std::uint64_t frames = 0, drops = 0, corrupt = 0, failures = 0, no_height = 0;
   std::uint64_t body_rejected = 0;  ///< body markers whose view gave no body observation (docs/bodies.md)
   std::uint64_t detect_ns_total = 0, markers_total = 0;  ///< since start

@@ -63,9 +63,11 @@ nlohmann::json body_layout(const std::vector<ips::BodyDef>& bodies) {
 }
 
 nlohmann::json web_counters_json(const ips::WebCounters& c) {
-  return {{"clients", c.clients},   {"clients_total", c.clients_total}, {"refused", c.refused},
-          {"messages", c.messages}, {"dropped", c.dropped},             {"inbox_dropped", c.inbox_dropped},
-          {"frames", c.frames},     {"bad_requests", c.bad_requests}, {"limited", c.limited}};
+  return {{"clients", c.clients}, {"clients_total", c.clients_total},
+          {"refused", c.refused}, {"messages", c.messages},
+          {"dropped", c.dropped}, {"inbox_dropped", c.inbox_dropped},
+          {"frames", c.frames},   {"bad_requests", c.bad_requests},
+          {"limited", c.limited}};
 }
 
 }  // namespace ipsd

@@ -52,7 +52,8 @@ std::vector<FusedBody> BodyEstimator::fuse(std::span<const BodyObservation> obse
       }
     bool has_ref = s != 0 || c != 0;
     double ref = std::atan2(s, c);
-    if (!has_ref && mem.valid && std::llabs(t_now - mem.t_ns) <= static_cast<std::int64_t>(options_.yaw_memory_s * 1e9)) {
+    if (!has_ref && mem.valid &&
+        std::llabs(t_now - mem.t_ns) <= static_cast<std::int64_t>(options_.yaw_memory_s * 1e9)) {
       has_ref = true;
       ref = mem.yaw;
     }
@@ -165,7 +166,8 @@ std::vector<FusedBody> BodyEstimator::fuse(std::span<const BodyObservation> obse
           have = true;
         }
         if (q.dot(first) < 0) q.coeffs() = -q.coeffs();
-        const double w = method.weight ? std::max(1e-12, method.weight(as_world(*r.o, Eigen::Vector3d::Zero(), 0.0))) : 1.0;
+        const double w =
+            method.weight ? std::max(1e-12, method.weight(as_world(*r.o, Eigen::Vector3d::Zero(), 0.0))) : 1.0;
         sum += w * q.coeffs();
       }
       if (have) {

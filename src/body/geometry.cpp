@@ -89,12 +89,9 @@ FaceClass face_class(const Eigen::Vector3d& normal, double tolerance) {
 
 const char* face_class_name(FaceClass c) {
   switch (c) {
-    case FaceClass::kUp:
-      return "up";
-    case FaceClass::kSide:
-      return "side";
-    case FaceClass::kOther:
-      break;
+    case FaceClass::kUp: return "up";
+    case FaceClass::kSide: return "side";
+    case FaceClass::kOther: break;
   }
   return "other";
 }

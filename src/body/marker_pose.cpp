@@ -25,8 +25,8 @@ std::vector<MarkerPoseSolution> planar_marker_poses(const std::array<Point2, 4>&
   std::vector<cv::Mat> rvecs, tvecs;
   cv::Mat errors;
   try {
-    cv::solvePnPGeneric(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvecs, tvecs, false,
-                        cv::SOLVEPNP_IPPE_SQUARE, cv::noArray(), cv::noArray(), errors);
+    cv::solvePnPGeneric(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE_SQUARE,
+                        cv::noArray(), cv::noArray(), errors);
   } catch (const cv::Exception&) {
     return out;  // degenerate corners (a sliver seen edge-on)
   }

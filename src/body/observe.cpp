@@ -169,8 +169,8 @@ bool BodyEstimator::observe(const CameraObservation& obs, const Mapper& mapper, 
     const Eigen::Vector3d centre = (p[0] + p[1] + p[2] + p[3]) / 4.0;
     // The marker axis that runs most horizontally on the body gives the heading.
     const bool use_x = m.axes.col(0).head<2>().norm() >= m.axes.col(1).head<2>().norm();
-    const Eigen::Vector3d axis_w = use_x ? Eigen::Vector3d((p[1] - p[0]) + (p[2] - p[3]))
-                                         : Eigen::Vector3d((p[0] - p[3]) + (p[1] - p[2]));
+    const Eigen::Vector3d axis_w =
+        use_x ? Eigen::Vector3d((p[1] - p[0]) + (p[2] - p[3])) : Eigen::Vector3d((p[0] - p[3]) + (p[1] - p[2]));
     const Eigen::Vector3d axis_b = use_x ? Eigen::Vector3d(m.axes.col(0)) : Eigen::Vector3d(m.axes.col(1));
     const double yaw = wrap(std::atan2(axis_w.y(), axis_w.x()) - std::atan2(axis_b.y(), axis_b.x()));
     const Eigen::Matrix3d Rz = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();

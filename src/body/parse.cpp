@@ -8,8 +8,8 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "ips/core/accepted_keys.h"
 #include "ips/body/body.h"
+#include "ips/core/accepted_keys.h"
 #include "ips/output/packet_codec.h"
 
 namespace ips {
@@ -82,7 +82,8 @@ BodyDef parse_body(const YAML::Node& node, const std::string& key, const std::ve
   c.only(node, key, keys);
   BodyDef b;
   const YAML::Node name = node["name"];
-  if (!name || !name.IsScalar() || name.Scalar().empty()) c.error(name ? name : node, key + ".name", "required: the body's name");
+  if (!name || !name.IsScalar() || name.Scalar().empty())
+    c.error(name ? name : node, key + ".name", "required: the body's name");
   b.name = name.Scalar();
   if (!valid_body_name(b.name))  // the stream carries it in 32 NUL-padded bytes (include/ips/output/wire.h)
     c.error(name, key + ".name", "body name must be 1-31 bytes of UTF-8 without NUL: '" + b.name + "'");
@@ -103,7 +104,8 @@ BodyDef parse_body(const YAML::Node& node, const std::string& key, const std::ve
     const int id = c.id(cube, k);
     const double edge = c.positive(cube, k, "edge", body_edge);
     const double size = c.positive(cube, k, "size", 0);
-    if (edge > size) c.error(cube["edge"] ? cube["edge"] : cube, k + ".edge", "the marker is larger than the cube face (size)");
+    if (edge > size)
+      c.error(cube["edge"] ? cube["edge"] : cube, k + ".edge", "the marker is larger than the cube face (size)");
     double height = 0;
     if (cube["height"]) {
       height = c.number(cube["height"], k + ".height");

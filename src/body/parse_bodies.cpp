@@ -34,7 +34,9 @@ std::vector<BodyDef> parse_bodies(const YAML::Node& n, const MarkerConfig& marke
         fail(n[i], key, "marker id " + std::to_string(m.id) + " is not in " + markers.dictionary);
       const auto it = markers.ids.find(m.id);
       if (it != markers.ids.end() && it->second.fixed)
-        fail(n[i], key, "marker id " + std::to_string(m.id) + " is a fixed marker (markers.ids." + std::to_string(m.id) + ".fixed)");
+        fail(n[i], key,
+             "marker id " + std::to_string(m.id) + " is a fixed marker (markers.ids." + std::to_string(m.id) +
+                 ".fixed)");
     }
   }
   check_bodies(bodies, nodes, "bodies", fail);

@@ -34,7 +34,8 @@ void BodyTrack::set_velocity(const Track& track, FusedBody& f) {
   // Yaw difference taken the short way round: a body turns less than half a turn in a span.
   if (first && last && last->t_ns > first->t_ns) {
     f.has_yaw_rate = true;
-    f.yaw_rate = std::remainder(last->yaw - first->yaw, 2 * M_PI) / (1e-9 * static_cast<double>(last->t_ns - first->t_ns));
+    f.yaw_rate =
+        std::remainder(last->yaw - first->yaw, 2 * M_PI) / (1e-9 * static_cast<double>(last->t_ns - first->t_ns));
   }
 }
 

@@ -8,16 +8,15 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/detect/detector.h"
 #include "ips/core/error.h"
+#include "ips/detect/detector.h"
 
 namespace ips::calib {
 namespace {
 
 [[noreturn]] void bad(const std::string& spec, const std::string& what) {
   throw InputError("board spec '" + spec + "': " + what +
-                   " (expected charuco:COLSxROWS:SQUARE_M:MARKER_M[:DICT], e.g. " +
-                   kDefaultBoardSpec + ")");
+                   " (expected charuco:COLSxROWS:SQUARE_M:MARKER_M[:DICT], e.g. " + kDefaultBoardSpec + ")");
 }
 
 double parse_length(const std::string& spec, const std::string& text, const char* name) {
@@ -78,8 +77,7 @@ BoardSpec BoardSpec::parse(const std::string& spec) {
 
 std::string BoardSpec::str() const {
   char buf[160];
-  std::snprintf(buf, sizeof buf, "charuco:%dx%d:%.6g:%.6g:%s", cols, rows, square, marker,
-                dictionary.c_str());
+  std::snprintf(buf, sizeof buf, "charuco:%dx%d:%.6g:%.6g:%s", cols, rows, square, marker, dictionary.c_str());
   return buf;
 }
 

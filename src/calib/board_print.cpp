@@ -25,8 +25,8 @@ SheetLayout sheet_layout(const BoardSpec& spec) {
 namespace {
 // Board frame (metres, y down the print) -> page (millimetres).
 cv::Vec4d to_page(const cv::Vec4d& r, const SheetLayout& l) {
-  return {l.board_x_mm + r[0] * 1000.0, l.board_y_mm + r[1] * 1000.0,
-          l.board_x_mm + r[2] * 1000.0, l.board_y_mm + r[3] * 1000.0};
+  return {l.board_x_mm + r[0] * 1000.0, l.board_y_mm + r[1] * 1000.0, l.board_x_mm + r[2] * 1000.0,
+          l.board_y_mm + r[3] * 1000.0};
 }
 }  // namespace
 
@@ -42,13 +42,12 @@ std::string board_svg(const Board& board) {
                 "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.3fmm\" height=\"%.3fmm\" "
                 "viewBox=\"0 0 %.3f %.3f\" shape-rendering=\"crispEdges\">\n"
                 "<rect x=\"0\" y=\"0\" width=\"%.3f\" height=\"%.3f\" fill=\"#ffffff\"/>\n<g fill=\"#000000\">\n",
-                spec.str().c_str(), l.page_w_mm, l.page_h_mm, l.page_w_mm, l.page_h_mm, l.page_w_mm,
-                l.page_h_mm);
+                spec.str().c_str(), l.page_w_mm, l.page_h_mm, l.page_w_mm, l.page_h_mm, l.page_w_mm, l.page_h_mm);
   s += buf;
   for (const auto& r : board.black_rects()) {
     const cv::Vec4d p = to_page(r, l);
-    std::snprintf(buf, sizeof buf, "<rect x=\"%.4f\" y=\"%.4f\" width=\"%.4f\" height=\"%.4f\"/>\n",
-                  p[0], p[1], p[2] - p[0], p[3] - p[1]);
+    std::snprintf(buf, sizeof buf, "<rect x=\"%.4f\" y=\"%.4f\" width=\"%.4f\" height=\"%.4f\"/>\n", p[0], p[1],
+                  p[2] - p[0], p[3] - p[1]);
     s += buf;
   }
   std::snprintf(buf, sizeof buf,
@@ -57,9 +56,8 @@ std::string board_svg(const Board& board) {
                 "<rect x=\"%.3f\" y=\"%.3f\" width=\"%.3f\" height=\"%.3f\" fill=\"#000000\"/>\n"
                 "<text x=\"%.3f\" y=\"%.3f\" font-family=\"monospace\" font-size=\"3.5\">100 mm</text>\n"
                 "</svg>\n",
-                l.margin_mm, l.text_y_mm, spec.str().c_str(), spec.square * 1000, spec.marker * 1000,
-                l.bar_x_mm, l.bar_y_mm, l.bar_len_mm, l.bar_h_mm, l.bar_x_mm + l.bar_len_mm + 3.0,
-                l.bar_y_mm + l.bar_h_mm);
+                l.margin_mm, l.text_y_mm, spec.str().c_str(), spec.square * 1000, spec.marker * 1000, l.bar_x_mm,
+                l.bar_y_mm, l.bar_len_mm, l.bar_h_mm, l.bar_x_mm + l.bar_len_mm + 3.0, l.bar_y_mm + l.bar_h_mm);
   s += buf;
   return s;
 }
@@ -83,10 +81,10 @@ cv::Mat board_raster(const Board& board, double dpi) {
   const double scale = 3.5 * ppm / 22.0;  // ~3.5 mm high text (Hershey simplex is ~22 px at scale 1)
   const int thick = std::max(1, static_cast<int>(std::lround(0.3 * ppm)));
   char buf[200];
-  std::snprintf(buf, sizeof buf, "%s  (square %.1f mm, marker %.1f mm)", spec.str().c_str(),
-                spec.square * 1000, spec.marker * 1000);
-  cv::putText(img, buf, cv::Point(px(l.margin_mm), px(l.text_y_mm)), cv::FONT_HERSHEY_SIMPLEX, scale,
-              cv::Scalar(0), thick, cv::LINE_AA);
+  std::snprintf(buf, sizeof buf, "%s  (square %.1f mm, marker %.1f mm)", spec.str().c_str(), spec.square * 1000,
+                spec.marker * 1000);
+  cv::putText(img, buf, cv::Point(px(l.margin_mm), px(l.text_y_mm)), cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0),
+              thick, cv::LINE_AA);
   cv::putText(img, "100 mm", cv::Point(px(l.bar_x_mm + l.bar_len_mm + 3.0), px(l.bar_y_mm + l.bar_h_mm)),
               cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0), thick, cv::LINE_AA);
   return img;

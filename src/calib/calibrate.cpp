@@ -29,8 +29,8 @@ std::vector<cv::Point3d> object_points(const BoardObservation& o, const Board& b
 }
 
 // One OpenCV fit over the given views.
-Fit fit(const std::vector<const BoardObservation*>& views, const Board& board,
-        CameraModel::Kind kind, cv::Size size, bool thin_prism) {
+Fit fit(const std::vector<const BoardObservation*>& views, const Board& board, CameraModel::Kind kind, cv::Size size,
+        bool thin_prism) {
   Fit f;
   const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12);
   if (kind == CameraModel::Kind::kFisheye) {
@@ -71,8 +71,8 @@ Fit fit(const std::vector<const BoardObservation*>& views, const Board& board,
   return f;
 }
 
-std::vector<cv::Point2d> project(const CameraModel& model, const std::vector<cv::Point3d>& obj,
-                                 const cv::Vec3d& rvec, const cv::Vec3d& tvec) {
+std::vector<cv::Point2d> project(const CameraModel& model, const std::vector<cv::Point3d>& obj, const cv::Vec3d& rvec,
+                                 const cv::Vec3d& tvec) {
   cv::Matx33d R;
   cv::Rodrigues(rvec, R);
   std::vector<cv::Point2d> out;
@@ -85,8 +85,7 @@ std::vector<cv::Point2d> project(const CameraModel& model, const std::vector<cv:
 }
 
 // Residuals of one view under `model` with the given pose.
-void residuals(ViewResult& v, const BoardObservation& o, const Board& board,
-               const CameraModel& model) {
+void residuals(ViewResult& v, const BoardObservation& o, const Board& board, const CameraModel& model) {
   const auto proj = project(model, object_points(o, board), v.rvec, v.tvec);
   v.px = o.px;
   v.residual.clear();
@@ -100,8 +99,8 @@ void residuals(ViewResult& v, const BoardObservation& o, const Board& board,
 }
 
 // Pose of a view not in the fit (a dropped outlier), for its residuals in the report.
-bool pose_of(const BoardObservation& o, const Board& board, const CameraModel& model,
-             cv::Vec3d& rvec, cv::Vec3d& tvec) {
+bool pose_of(const BoardObservation& o, const Board& board, const CameraModel& model, cv::Vec3d& rvec,
+             cv::Vec3d& tvec) {
   std::vector<cv::Point3d> obj;
   std::vector<cv::Point2d> norm;
   const auto all = object_points(o, board);
@@ -151,10 +150,9 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
   const cv::Size size = observations.front().image_size;
   for (const auto& o : observations) {
     if (o.image_size != size) {
-      throw InputError("images of different sizes: " + observations.front().name + " is " +
-                       std::to_string(size.width) + "x" + std::to_string(size.height) + ", " +
-                       o.name + " is " + std::to_string(o.image_size.width) + "x" +
-                       std::to_string(o.image_size.height));
+      throw InputError("images of different sizes: " + observations.front().name + " is " + std::to_string(size.width) +
+                       "x" + std::to_string(size.height) + ", " + o.name + " is " + std::to_string(o.image_size.width) +
+                       "x" + std::to_string(o.image_size.height));
     }
   }
   CalibrationResult res;
@@ -173,9 +171,8 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
                      std::to_string(observations.size()) + " image(s)");
   }
   if (static_cast<int>(active.size()) < opt.min_views) {
-    throw InputError("too few views: " + std::to_string(active.size()) + " of " +
-                     std::to_string(observations.size()) + " image(s) show a usable board (at least " +
-                     std::to_string(opt.min_corners) + " corners), " +
+    throw InputError("too few views: " + std::to_string(active.size()) + " of " + std::to_string(observations.size()) +
+                     " image(s) show a usable board (at least " + std::to_string(opt.min_corners) + " corners), " +
                      std::to_string(opt.min_views) + " needed");
   }
   Fit f;
@@ -246,15 +243,15 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
     }
     if (keep.size() != active.size()) {
       if (static_cast<int>(keep.size()) < opt.min_views) {
-        throw InputError("too few views: " + std::to_string(active.size() - keep.size()) +
-                         " of " + std::to_string(active.size()) + " views are outliers, fewer than " +
+        throw InputError("too few views: " + std::to_string(active.size() - keep.size()) + " of " +
+                         std::to_string(active.size()) + " views are outliers, fewer than " +
                          std::to_string(opt.min_views) + " remain");
       }
       active = keep;
       continue;
     }
-    const double corner_limit = std::max(opt.corner_outlier_factor * std::sqrt(ss / std::max<std::size_t>(1, n)),
-                                         opt.corner_outlier_floor_px);
+    const double corner_limit =
+        std::max(opt.corner_outlier_factor * std::sqrt(ss / std::max<std::size_t>(1, n)), opt.corner_outlier_floor_px);
     int removed = 0;
     for (std::size_t k = 0; k < active.size(); ++k) {
       ViewResult& v = res.views[active[k]];
@@ -275,8 +272,8 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
         if (res.views[i].why.empty()) still.push_back(i);
       }
       if (static_cast<int>(still.size()) < opt.min_views)
-        throw InputError("too few views: after removing outlier corners, fewer than " +
-                         std::to_string(opt.min_views) + " views remain usable");
+        throw InputError("too few views: after removing outlier corners, fewer than " + std::to_string(opt.min_views) +
+                         " views remain usable");
       active = still;
       continue;
     }
@@ -291,8 +288,7 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
     ViewResult& v = res.views[i];
     v.used = std::find(active.begin(), active.end(), i) != active.end();
     if (!v.used) {
-      if (!observations[i].ids.empty() &&
-          pose_of(observations[i], board, res.model, v.rvec, v.tvec)) {
+      if (!observations[i].ids.empty() && pose_of(observations[i], board, res.model, v.rvec, v.tvec)) {
         residuals(v, observations[i], board, res.model);
       }
       continue;
@@ -315,9 +311,9 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
     }
   }
   res.rms = n ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
-  res.coverage = static_cast<double>(std::count_if(res.grid_counts.begin(), res.grid_counts.end(),
-                                                   [](int c) { return c > 0; })) /
-                 static_cast<double>(res.grid.area());
+  res.coverage =
+      static_cast<double>(std::count_if(res.grid_counts.begin(), res.grid_counts.end(), [](int c) { return c > 0; })) /
+      static_cast<double>(res.grid.area());
   if (opt.kind == CameraModel::Kind::kFisheye && res.model.max_theta() < 1.5707963267948966 - 1e-3) {
     res.turn_back_deg = res.model.max_theta() * kRadToDeg;
     const double r = std::tan(res.model.max_theta());
@@ -327,9 +323,8 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& input, const Bo
   return res;
 }
 
-CameraModel calibrate_opencv_plain(const std::vector<BoardObservation>& observations,
-                                   const Board& board, CameraModel::Kind kind, int min_corners,
-                                   bool thin_prism) {
+CameraModel calibrate_opencv_plain(const std::vector<BoardObservation>& observations, const Board& board,
+                                   CameraModel::Kind kind, int min_corners, bool thin_prism) {
   std::vector<const BoardObservation*> views;
   for (const auto& o : observations)
     if (usable_problem(o, min_corners).empty()) views.push_back(&o);

@@ -8,9 +8,7 @@
 
 namespace ips::calib {
 
-int refine_window(double d) {
-  return std::min(12, static_cast<int>(std::floor(d / std::sqrt(2.0) - 1.5)));
-}
+int refine_window(double d) { return std::min(12, static_cast<int>(std::floor(d / std::sqrt(2.0) - 1.5))); }
 
 BoardObservation detect_board(const cv::Mat& gray, const Board& board) {
   BoardObservation obs;
@@ -20,8 +18,7 @@ BoardObservation detect_board(const cv::Mat& gray, const Board& board) {
   auto params = cv::aruco::DetectorParameters::create();
   // Marker corners only seed the interpolation; the chessboard corners are refined below.
   params->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;
-  cv::aruco::detectMarkers(gray, board.charuco()->dictionary, marker_corners, marker_ids, params,
-                           rejected);
+  cv::aruco::detectMarkers(gray, board.charuco()->dictionary, marker_corners, marker_ids, params, rejected);
   // Keep only markers of this board (a robot's marker of another id range is not ours).
   {
     std::vector<std::vector<cv::Point2f>> c2;
@@ -40,8 +37,7 @@ BoardObservation detect_board(const cv::Mat& gray, const Board& board) {
   if (marker_ids.empty()) return obs;
   std::vector<cv::Point2f> corners;
   std::vector<int> ids;
-  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, gray, board.charuco(), corners,
-                                       ids);
+  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, gray, board.charuco(), corners, ids);
   if (ids.empty()) return obs;
   // Refine every interpolated corner with its own window, clear of the marker corners.
   for (std::size_t i = 0; i < ids.size(); ++i) {

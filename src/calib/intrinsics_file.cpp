@@ -11,11 +11,12 @@ namespace ips::calib {
 std::string model_yaml(const CameraModel& m) {
   const auto& K = m.K();
   const bool fisheye = m.kind() == CameraModel::Kind::kFisheye;
-  std::string s = std::string("# Camera intrinsics (the ipsd intrinsics form, include/ips/geometry/camera_model.h): OpenCV ") +
-                  (fisheye ? "fisheye model, D = k1 k2 k3 k4"
-                           : (m.D().size() == 12 ? "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4"
-                                                 : "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6")) +
-                  ".\n";
+  std::string s =
+      std::string("# Camera intrinsics (the ipsd intrinsics form, include/ips/geometry/camera_model.h): OpenCV ") +
+      (fisheye ? "fisheye model, D = k1 k2 k3 k4"
+               : (m.D().size() == 12 ? "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4"
+                                     : "pinhole model, D = k1 k2 p1 p2 k3 k4 k5 k6")) +
+      ".\n";
   s += std::string("model: ") + (fisheye ? "fisheye" : "pinhole") + "\n";
   char buf[512];
   std::snprintf(buf, sizeof buf, "image_width: %d\nimage_height: %d\n", m.size().width, m.size().height);
@@ -31,8 +32,7 @@ std::string model_yaml(const CameraModel& m) {
   return s + "]\n";
 }
 
-std::string intrinsics_yaml(const CalibrationResult& r, const BoardSpec& board,
-                            const std::string& source) {
+std::string intrinsics_yaml(const CalibrationResult& r, const BoardSpec& board, const std::string& source) {
   const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   char date[32];
   std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));

@@ -137,8 +137,8 @@ std::vector<std::string> ViewSelector::missing() const {
       }
     }
   }
-  const int corners_covered = covered(0, 0) + covered(grid_.width - 1, 0) +
-                              covered(0, grid_.height - 1) + covered(grid_.width - 1, grid_.height - 1);
+  const int corners_covered = covered(0, 0) + covered(grid_.width - 1, 0) + covered(0, grid_.height - 1) +
+                              covered(grid_.width - 1, grid_.height - 1);
   if (edge_covered < edge / 2) out.push_back("edges of the image");
   if (corners_covered < 4) out.push_back("corners of the image");
   int inner = 0, inner_covered = 0;

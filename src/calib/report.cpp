@@ -18,24 +18,23 @@ std::string result_json(const CalibrationResult& r, const BoardSpec& board) {
     if (v.corners_dropped > 0) j["outlier_corners"] = v.corners_dropped;
     views.push_back(j);
   }
-  nlohmann::json out{
-      {"model", r.model.kind() == CameraModel::Kind::kFisheye ? "fisheye" : "pinhole"},
-      {"board", board.str()},
-      {"image_width", r.model.size().width},
-      {"image_height", r.model.size().height},
-      {"K", {r.model.K()(0, 0), r.model.K()(0, 1), r.model.K()(0, 2), r.model.K()(1, 0),
-             r.model.K()(1, 1), r.model.K()(1, 2), 0.0, 0.0, 1.0}},
-      {"D", r.model.D()},
-      {"rms_px", r.rms},
-      {"views_used", r.used_views},
-      {"images", r.views.size()},
-      {"coverage", r.coverage},
-      {"coverage_grid", {r.grid.width, r.grid.height}},
-      {"max_field_deg", r.max_field_deg},
-      {"corners_without_ray", r.corners_without_ray},
-      {"views", views}};
-  out["polynomial_turns_back_deg"] =
-      r.turn_back_deg ? nlohmann::json(*r.turn_back_deg) : nlohmann::json(nullptr);
+  nlohmann::json out{{"model", r.model.kind() == CameraModel::Kind::kFisheye ? "fisheye" : "pinhole"},
+                     {"board", board.str()},
+                     {"image_width", r.model.size().width},
+                     {"image_height", r.model.size().height},
+                     {"K",
+                      {r.model.K()(0, 0), r.model.K()(0, 1), r.model.K()(0, 2), r.model.K()(1, 0), r.model.K()(1, 1),
+                       r.model.K()(1, 2), 0.0, 0.0, 1.0}},
+                     {"D", r.model.D()},
+                     {"rms_px", r.rms},
+                     {"views_used", r.used_views},
+                     {"images", r.views.size()},
+                     {"coverage", r.coverage},
+                     {"coverage_grid", {r.grid.width, r.grid.height}},
+                     {"max_field_deg", r.max_field_deg},
+                     {"corners_without_ray", r.corners_without_ray},
+                     {"views", views}};
+  out["polynomial_turns_back_deg"] = r.turn_back_deg ? nlohmann::json(*r.turn_back_deg) : nlohmann::json(nullptr);
   return out.dump(2) + "\n";
 }
 
@@ -74,15 +73,13 @@ cv::Mat draw_report(const CalibrationResult& r, const BoardSpec& board, double m
   }
   char line[256];
   const auto text = [&](int row, const std::string& s, cv::Scalar colour) {
-    cv::putText(img, s, cv::Point(10, H + 24 + 26 * row), cv::FONT_HERSHEY_SIMPLEX, 0.6, colour, 1,
-                cv::LINE_AA);
+    cv::putText(img, s, cv::Point(10, H + 24 + 26 * row), cv::FONT_HERSHEY_SIMPLEX, 0.6, colour, 1, cv::LINE_AA);
   };
   int dropped = 0;
   for (const auto& v : r.views) dropped += (!v.used && !v.residual.empty()) ? 1 : 0;
-  std::snprintf(line, sizeof line,
-                "%s  RMS %.3f px over %d views (%d not used, red)   residuals x%.0f (yellow)",
-                r.model.kind() == CameraModel::Kind::kFisheye ? "fisheye" : "pinhole", r.rms,
-                r.used_views, dropped, magnify);
+  std::snprintf(line, sizeof line, "%s  RMS %.3f px over %d views (%d not used, red)   residuals x%.0f (yellow)",
+                r.model.kind() == CameraModel::Kind::kFisheye ? "fisheye" : "pinhole", r.rms, r.used_views, dropped,
+                magnify);
   text(0, line, cv::Scalar(255, 255, 255));
   std::snprintf(line, sizeof line,
                 "coverage %.0f%% of the %dx%d grid (green = has corners)   largest field angle %.1f deg",

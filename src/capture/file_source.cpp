@@ -21,8 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 bool is_image(const fs::path& p) {
-  static const std::set<std::string> kExtensions{".png", ".jpg",  ".jpeg", ".bmp",
-                                                 ".tif", ".tiff", ".pgm",  ".ppm"};
+  static const std::set<std::string> kExtensions{".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"};
   std::string ext = p.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -47,9 +46,7 @@ void FileSourceOptions::validate() const {
   if (!(fps >= 0 && fps <= 10000)) throw InputError("file source: 'fps' must be in [0, 10000]");
 }
 
-FileSource::FileSource(FileSourceOptions options) : options_(std::move(options)) {
-  options_.validate();
-}
+FileSource::FileSource(FileSourceOptions options) : options_(std::move(options)) { options_.validate(); }
 
 std::string FileSource::describe() const { return "file:" + options_.path; }
 
@@ -60,8 +57,7 @@ void FileSource::open() {
   is_directory_ = fs::is_directory(options_.path, ec);
   if (is_directory_) {
     for (const auto& entry : fs::directory_iterator(options_.path, ec))
-      if (entry.is_regular_file() && is_image(entry.path()))
-        files_.push_back(entry.path().string());
+      if (entry.is_regular_file() && is_image(entry.path())) files_.push_back(entry.path().string());
     std::sort(files_.begin(), files_.end());
     if (files_.empty()) throw SourceError(describe() + ": the directory holds no image");
     if (options_.preload) {
@@ -145,8 +141,7 @@ FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds t
       std::this_thread::sleep_for(timeout);
       return ReadStatus::kTimeout;
     }
-    if (next_due_ns_ > now)
-      std::this_thread::sleep_for(std::chrono::nanoseconds(next_due_ns_ - now));
+    if (next_due_ns_ > now) std::this_thread::sleep_for(std::chrono::nanoseconds(next_due_ns_ - now));
     const auto period = static_cast<std::int64_t>(std::llround(1e9 / options_.fps));
     // A caller that fell behind gets at most one overdue frame at once, not a burst.
     next_due_ns_ = std::max(next_due_ns_ + period, monotonic_ns());

@@ -15,9 +15,8 @@ JpegDecoder::~JpegDecoder() { tjDestroy(handle_); }
 bool JpegDecoder::read_size(std::span<const std::uint8_t> jpeg, int& width, int& height) {
   int subsampling = 0;
   int colorspace = 0;
-  if (jpeg.size() < 4 ||
-      tjDecompressHeader3(handle_, jpeg.data(), static_cast<unsigned long>(jpeg.size()), &width,
-                          &height, &subsampling, &colorspace) != 0) {
+  if (jpeg.size() < 4 || tjDecompressHeader3(handle_, jpeg.data(), static_cast<unsigned long>(jpeg.size()), &width,
+                                             &height, &subsampling, &colorspace) != 0) {
     error_ = jpeg.size() < 4 ? "too short to be a JPEG" : tjGetErrorStr2(handle_);
     return false;
   }
@@ -36,8 +35,8 @@ bool JpegDecoder::decode_gray(std::span<const std::uint8_t> jpeg, cv::Mat& gray,
   const int out_h = TJSCALED(height, factor);
   gray.create(out_h, out_w, CV_8UC1);  // no-op when the size is unchanged
   const int flags = TJFLAG_FASTDCT | TJFLAG_STOPONWARNING;
-  if (tjDecompress2(handle_, jpeg.data(), static_cast<unsigned long>(jpeg.size()), gray.data,
-                    out_w, static_cast<int>(gray.step), out_h, TJPF_GRAY, flags) != 0) {
+  if (tjDecompress2(handle_, jpeg.data(), static_cast<unsigned long>(jpeg.size()), gray.data, out_w,
+                    static_cast<int>(gray.step), out_h, TJPF_GRAY, flags) != 0) {
     error_ = tjGetErrorStr2(handle_);
     return false;
   }

@@ -73,8 +73,7 @@ bool JpegRegionDecoder::read_size(std::span<const std::uint8_t> jpeg, cv::Size& 
   return true;
 }
 
-bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray,
-                               const std::vector<cv::Rect>& rois) {
+bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray, const std::vector<cv::Rect>& rois) {
   jpeg_decompress_struct& c = impl_->cinfo;
   auto& bands = impl_->bands;
   if (jpeg.size() < 4) {

@@ -16,15 +16,15 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
   if (c.name.empty()) r.fail(n["name"], r.key("name"), "empty name");
   c.model = c.name;
   r.get("model", c.model);
-  c.source = pick<SourceKind>(r, "source",
-                              {{"v4l2", SourceKind::kV4l2}, {"file", SourceKind::kFile}, {"synthetic", SourceKind::kSynthetic}},
-                              c.source, true);
+  c.source = pick<SourceKind>(
+      r, "source", {{"v4l2", SourceKind::kV4l2}, {"file", SourceKind::kFile}, {"synthetic", SourceKind::kSynthetic}},
+      c.source, true);
   r.get("device", c.v4l2.device, c.source == SourceKind::kV4l2);
   r.get("width", c.v4l2.width);
   r.get("height", c.v4l2.height);
   if (c.v4l2.width <= 0 || c.v4l2.height <= 0) r.fail(n, r.key("width/height"), "must be positive");
   c.v4l2.format = pick<PixelFormat>(r, "pixel_format", {{"MJPEG", PixelFormat::kMjpeg}, {"YUYV", PixelFormat::kYuyv}},
-                                   c.v4l2.format, false);
+                                    c.v4l2.format, false);
   r.get("buffer_count", c.v4l2.buffer_count);
   if (c.v4l2.buffer_count < 4) r.fail(n["buffer_count"], r.key("buffer_count"), "must be >= 4");
   if (r.has("controls")) {
@@ -44,7 +44,8 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
     opt("gain", c.v4l2.controls.gain);
     opt("autofocus", c.v4l2.controls.autofocus);
     opt("power_line_hz", c.v4l2.controls.power_line_hz);
-    if (c.v4l2.controls.power_line_hz && *c.v4l2.controls.power_line_hz != 0 && *c.v4l2.controls.power_line_hz != 50 && *c.v4l2.controls.power_line_hz != 60)
+    if (c.v4l2.controls.power_line_hz && *c.v4l2.controls.power_line_hz != 0 && *c.v4l2.controls.power_line_hz != 50 &&
+        *c.v4l2.controls.power_line_hz != 60)
       k.fail(k.raw()["power_line_hz"], k.key("power_line_hz"), "must be 50, 60 or 0");
     k.finish();
   }

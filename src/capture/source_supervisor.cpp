@@ -15,7 +15,10 @@ SourceSupervisor::Clock SourceSupervisor::system_clock() {
 }
 
 SourceSupervisor::SourceSupervisor(std::string name, SourceFactory factory, BackoffOptions backoff, Clock clock)
-    : name_(std::move(name)), factory_(std::move(factory)), options_(backoff), clock_(std::move(clock)),
+    : name_(std::move(name)),
+      factory_(std::move(factory)),
+      options_(backoff),
+      clock_(std::move(clock)),
       backoff_s_(backoff.initial_s) {}
 
 SourceSupervisor::~SourceSupervisor() {

@@ -19,8 +19,7 @@ namespace fs = std::filesystem;
 using v4l2::xioctl;
 
 double fps_of(const v4l2_fract& interval) {
-  return interval.numerator > 0 ? static_cast<double>(interval.denominator) / interval.numerator
-                                : 0.0;
+  return interval.numerator > 0 ? static_cast<double>(interval.denominator) / interval.numerator : 0.0;
 }
 
 void query_intervals(int fd, std::uint32_t fourcc, V4L2FrameSize& size) {
@@ -32,8 +31,7 @@ void query_intervals(int fd, std::uint32_t fourcc, V4L2FrameSize& size) {
     if (ival.type == V4L2_FRMIVAL_TYPE_DISCRETE) {
       size.fps.push_back(fps_of(ival.discrete));
     } else {  // stepwise/continuous: the fastest rate has the shortest interval
-      size.fps_range =
-          fmt::format("{:.4g}-{:.4g} fps", fps_of(ival.stepwise.max), fps_of(ival.stepwise.min));
+      size.fps_range = fmt::format("{:.4g}-{:.4g} fps", fps_of(ival.stepwise.max), fps_of(ival.stepwise.min));
       break;
     }
   }
@@ -52,20 +50,19 @@ void query_sizes(int fd, V4L2FormatInfo& format, std::uint32_t fourcc) {
       format.sizes.push_back(std::move(size));
     } else {
       const auto& s = fs.stepwise;
-      format.size_range = fmt::format("{}x{}-{}x{} step {}x{}", s.min_width, s.min_height,
-                                      s.max_width, s.max_height, s.step_width, s.step_height);
+      format.size_range = fmt::format("{}x{}-{}x{} step {}x{}", s.min_width, s.min_height, s.max_width, s.max_height,
+                                      s.step_width, s.step_height);
       break;
     }
   }
 }
 
 void query_controls(int fd, std::vector<V4L2ControlInfo>& controls) {
-  static const std::pair<std::uint32_t, const char*> kControls[] = {
-      {V4L2_CID_EXPOSURE_AUTO, "auto_exposure"},
-      {V4L2_CID_EXPOSURE_ABSOLUTE, "exposure"},
-      {V4L2_CID_GAIN, "gain"},
-      {V4L2_CID_FOCUS_AUTO, "autofocus"},
-      {V4L2_CID_POWER_LINE_FREQUENCY, "power_line_hz"}};
+  static const std::pair<std::uint32_t, const char*> kControls[] = {{V4L2_CID_EXPOSURE_AUTO, "auto_exposure"},
+                                                                    {V4L2_CID_EXPOSURE_ABSOLUTE, "exposure"},
+                                                                    {V4L2_CID_GAIN, "gain"},
+                                                                    {V4L2_CID_FOCUS_AUTO, "autofocus"},
+                                                                    {V4L2_CID_POWER_LINE_FREQUENCY, "power_line_hz"}};
   for (const auto& [id, key] : kControls) {
     v4l2_queryctrl q{};
     q.id = id;
@@ -97,8 +94,7 @@ V4L2DeviceInfo query_v4l2_device(const std::string& path) {
   info.driver = reinterpret_cast<const char*>(cap.driver);
   info.card = reinterpret_cast<const char*>(cap.card);
   info.bus_info = reinterpret_cast<const char*>(cap.bus_info);
-  const std::uint32_t caps =
-      (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
+  const std::uint32_t caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
   info.capture = (caps & V4L2_CAP_VIDEO_CAPTURE) && (caps & V4L2_CAP_STREAMING);
   if (info.capture) {
     v4l2_fmtdesc desc{};

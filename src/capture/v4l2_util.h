@@ -21,8 +21,7 @@ inline int xioctl(int fd, unsigned long request, void* arg) {
 /// "MJPG", "YUYV", ... from a V4L2 fourcc.
 inline std::string fourcc_string(std::uint32_t fourcc) {
   std::string s(4, ' ');
-  for (int i = 0; i < 4; ++i)
-    s[static_cast<std::size_t>(i)] = static_cast<char>((fourcc >> (8 * i)) & 0xff);
+  for (int i = 0; i < 4; ++i) s[static_cast<std::size_t>(i)] = static_cast<char>((fourcc >> (8 * i)) & 0xff);
   return s;
 }
 

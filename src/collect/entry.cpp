@@ -45,8 +45,7 @@ std::string fmt(double v) {
 
 bool in_range(double v, double lo, double hi, const char* what, std::string& error) {
   if (v >= lo && v <= hi) return true;
-  error = std::string(what) + " " + fmt(v) + " m is out of range (" + fmt(lo) + " .. " + fmt(hi) +
-          " m)";
+  error = std::string(what) + " " + fmt(v) + " m is out of range (" + fmt(lo) + " .. " + fmt(hi) + " m)";
   return false;
 }
 
@@ -54,8 +53,7 @@ const char* kPositionHelp = "type the world position as three numbers in metres,
 
 }  // namespace
 
-bool parse_entry(std::string_view line, const EntryLimits& limits, Entry& out,
-                 std::string& error) {
+bool parse_entry(std::string_view line, const EntryLimits& limits, Entry& out, std::string& error) {
   out = Entry{};
   error.clear();
   if (line.find(',') != std::string_view::npos) {
@@ -86,15 +84,15 @@ bool parse_entry(std::string_view line, const EntryLimits& limits, Entry& out,
   if (w[0] == "d") {
     // d DA DB Z [left|right]
     if (w.size() < 4 || w.size() > 5) {
-      error = "distances: type d, the floor distances to A and B and the height, metres, "
-              "optionally left or right, e.g. d 2.10 1.75 0.00 left";
+      error =
+          "distances: type d, the floor distances to A and B and the height, metres, "
+          "optionally left or right, e.g. d 2.10 1.75 0.00 left";
       return false;
     }
     double v[3];
     for (int i = 0; i < 3; ++i) {
       if (!number(w[static_cast<std::size_t>(i) + 1], v[i])) {
-        error = quoted(w[static_cast<std::size_t>(i) + 1]) +
-                " is not a number: e.g. d 2.10 1.75 0.00 left";
+        error = quoted(w[static_cast<std::size_t>(i) + 1]) + " is not a number: e.g. d 2.10 1.75 0.00 left";
         return false;
       }
     }
@@ -111,8 +109,10 @@ bool parse_entry(std::string_view line, const EntryLimits& limits, Entry& out,
     out.d_b = v[1];
     out.z = v[2];
     if (w.size() == 5) {
-      if (w[4] == "left" || w[4] == "l") out.side = Side::kLeft;
-      else if (w[4] == "right" || w[4] == "r") out.side = Side::kRight;
+      if (w[4] == "left" || w[4] == "l")
+        out.side = Side::kLeft;
+      else if (w[4] == "right" || w[4] == "r")
+        out.side = Side::kRight;
       else {
         error = quoted(w[4]) + ": expected left or right (seen from A looking at B)";
         return false;

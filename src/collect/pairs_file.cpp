@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <sstream>
 
-#include "ips/mapping/calib_data.h"
 #include "ips/collect/collect.h"
 #include "ips/core/error.h"
+#include "ips/mapping/calib_data.h"
 
 namespace ips::collect {
 namespace {
@@ -22,12 +22,11 @@ PairsFile PairsFile::parse(const std::string& text, const std::string& name) {
   if (!header.empty() && header.back() == '\r') header.pop_back();
   if (header.find_first_not_of(" \t\r") == std::string::npos) return {};  // empty file
   if (header != kHeader)
-    throw InputError(name + ": header is '" + header + "'; only files with the header '" +
-                     kHeader + "' (as `ips collect` writes them) can be resumed");
+    throw InputError(name + ": header is '" + header + "'; only files with the header '" + kHeader +
+                     "' (as `ips collect` writes them) can be resumed");
   std::string row;
   bool any_row = false;
-  while (!any_row && std::getline(lines, row))
-    any_row = row.find_first_not_of(" \t\r") != std::string::npos;
+  while (!any_row && std::getline(lines, row)) any_row = row.find_first_not_of(" \t\r") != std::string::npos;
   if (!any_row) return {};
   std::istringstream in(text);
   const CalibData data = parse_calib_csv(in, name);  // validates and names file:line
@@ -73,8 +72,8 @@ std::string PairsFile::text() const {
   out << kHeader << '\n';
   for (const auto& p : placements_)
     for (const auto& [camera, c] : p.cameras)
-      out << camera << ',' << c.x() << ',' << c.y() << ',' << c.z() << ',' << p.world.x() << ','
-          << p.world.y() << ',' << p.world.z() << '\n';
+      out << camera << ',' << c.x() << ',' << c.y() << ',' << c.z() << ',' << p.world.x() << ',' << p.world.y() << ','
+          << p.world.z() << '\n';
   return out.str();
 }
 

@@ -64,8 +64,7 @@ std::vector<Eigen::Vector3d> parse_points_csv(const std::string& text, const std
       double v = 0;
       const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
       if (ec != std::errc() || end != f.data() + f.size() || !std::isfinite(v) || f.empty())
-        throw InputError(at + ": column '" + names[k] + "': '" +
-                         std::string(fields[static_cast<std::size_t>(col[k])]) +
+        throw InputError(at + ": column '" + names[k] + "': '" + std::string(fields[static_cast<std::size_t>(col[k])]) +
                          "' is not a number");
       p[k] = v;
     }

@@ -8,8 +8,7 @@
 
 namespace ips::collect {
 
-int side_from_cameras(const PairsFile& pairs,
-                      const std::vector<std::pair<std::string, Eigen::Vector3d>>& seen,
+int side_from_cameras(const PairsFile& pairs, const std::vector<std::pair<std::string, Eigen::Vector3d>>& seen,
                       const std::array<Eigen::Vector2d, 2>& candidates, std::string& how) {
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   int n = 0;
@@ -38,8 +37,7 @@ int side_from_cameras(const PairsFile& pairs,
   const double d0 = (candidates[0] - seen_at).norm(), d1 = (candidates[1] - seen_at).norm();
   char buf[160];
   std::snprintf(buf, sizeof buf, "the %s side: %s put%s it %.2f m from it, %.2f m from the other",
-                d0 <= d1 ? "left" : "right", names.c_str(), n == 1 ? "s" : "", std::min(d0, d1),
-                std::max(d0, d1));
+                d0 <= d1 ? "left" : "right", names.c_str(), n == 1 ? "s" : "", std::min(d0, d1), std::max(d0, d1));
   how = buf;
   return d0 <= d1 ? 0 : 1;
 }

@@ -5,8 +5,7 @@
 
 namespace ips::collect {
 
-CameraVerdict judge(const std::vector<Eigen::Vector3d>& samples, int frames,
-                    const SteadyOptions& options) {
+CameraVerdict judge(const std::vector<Eigen::Vector3d>& samples, int frames, const SteadyOptions& options) {
   CameraVerdict v;
   v.frames = frames;
   v.seen = static_cast<int>(samples.size());

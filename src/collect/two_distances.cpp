@@ -9,8 +9,8 @@
 
 namespace ips::collect {
 
-std::array<Eigen::Vector2d, 2> from_two_distances(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
-                                                  double d_a, double d_b, double slack) {
+std::array<Eigen::Vector2d, 2> from_two_distances(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double d_a,
+                                                  double d_b, double slack) {
   const double ab = (b - a).norm();
   if (!(ab > 1e-6)) throw InputError("reference points A and B are the same point");
   if (!(d_a > 0 && d_b > 0)) throw InputError("tape distances must be > 0");

@@ -35,12 +35,13 @@ void attach_ros2_names(DaemonConfig& c, const YAML::Node& root, const std::strin
         }
         throw InputError(at + ": markers.ids." + std::to_string(id) + ".name: '" + info.name +
                          "' is not usable in a ROS 2 topic name (letters, digits and _, not starting with a "
-                         "digit), as outputs[" + std::to_string(i) + "] (ros2) needs");
+                         "digit), as outputs[" +
+                         std::to_string(i) + "] (ros2) needs");
       }
       if (const auto [it, fresh] = taken.emplace(info.name, id); !fresh)
         throw InputError(file + ": markers.ids." + std::to_string(id) + ".name: '" + info.name +
-                         "' is also the name of marker " + std::to_string(it->second) +
-                         " (outputs[" + std::to_string(i) + "] (ros2) would publish both on one topic)");
+                         "' is also the name of marker " + std::to_string(it->second) + " (outputs[" +
+                         std::to_string(i) + "] (ros2) would publish both on one topic)");
       o.ros2.marker_names[id] = info.name;
     }
     // Bodies publish under their names beside the markers (/<prefix>/<body name>/pose, the
@@ -52,14 +53,15 @@ void attach_ros2_names(DaemonConfig& c, const YAML::Node& root, const std::strin
       if (!ros2::is_name_token(name))
         throw InputError(file + ": " + key + ": '" + name +
                          "' is not usable in a ROS 2 topic name (letters, digits and _, not starting with a "
-                         "digit), as " + needs + " needs");
+                         "digit), as " +
+                         needs + " needs");
       if (const auto it = taken.find(name); it != taken.end())
         throw InputError(file + ": " + key + ": '" + name + "' is also the name of marker " +
                          std::to_string(it->second) + " (" + needs + " would publish both on one topic)");
       if (name.rfind("marker_", 0) == 0 && name.size() > 7 &&
           name.find_first_not_of("0123456789", 7) == std::string::npos)
-        throw InputError(file + ": " + key + ": '" + name + "' is the ROS 2 name of unnamed marker " +
-                         name.substr(7) + " (" + needs + " would publish both on one topic)");
+        throw InputError(file + ": " + key + ": '" + name + "' is the ROS 2 name of unnamed marker " + name.substr(7) +
+                         " (" + needs + " would publish both on one topic)");
     }
   }
 }

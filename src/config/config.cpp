@@ -49,7 +49,8 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     c.cameras.push_back(parse_camera(cameras[i], static_cast<int>(i), base, file, checks.intrinsics_exist));
     if (!names.insert(c.cameras.back().name).second)
-      r.fail(cameras[i]["name"], "cameras[" + std::to_string(i) + "].name", "duplicate camera name '" + c.cameras.back().name + "'");
+      r.fail(cameras[i]["name"], "cameras[" + std::to_string(i) + "].name",
+             "duplicate camera name '" + c.cameras.back().name + "'");
   }
 
   if (r.has("markers")) c.markers = parse_markers(r.node("markers"), file);
@@ -68,7 +69,8 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   if (r.has("outputs")) {
     const YAML::Node outputs = r.node("outputs");
     if (!outputs.IsSequence()) r.fail(outputs, "outputs", "expected a list of outputs");
-    for (std::size_t i = 0; i < outputs.size(); ++i) c.outputs.push_back(parse_output(outputs[i], static_cast<int>(i), file));
+    for (std::size_t i = 0; i < outputs.size(); ++i)
+      c.outputs.push_back(parse_output(outputs[i], static_cast<int>(i), file));
     // A MAVLink track restarts when the fusion's Kalman filter would (unless set explicitly).
     for (OutputConfig& o : c.outputs)
       if (std::isnan(o.mavlink.track_gap_s)) o.mavlink.track_gap_s = c.fusion.kalman_options.reset_after_s;

@@ -3,10 +3,10 @@
 #include <cmath>
 #include <memory>
 
-#include "ips/core/error.h"
 #include "ips/capture/file_source.h"
-#include "ips/sim/synthetic_source.h"
 #include "ips/capture/v4l2_source.h"
+#include "ips/core/error.h"
+#include "ips/sim/synthetic_source.h"
 
 namespace ips {
 

@@ -1,6 +1,6 @@
 // Strict YAML mapping reader shared by the configuration's section parsers (each stage parses
-// its own section: src/<stage>/parse_*.cpp; private to the library). Every key must be consumed, or finish() names the first unknown one; errors carry
-// "file:line:column: key.path: what" and are ips::InputError.
+// its own section: src/<stage>/parse_*.cpp; private to the library). Every key must be consumed, or finish() names the
+// first unknown one; errors carry "file:line:column: key.path: what" and are ips::InputError.
 #pragma once
 
 #include <cmath>
@@ -80,8 +80,8 @@ class MapReader {
       fail(node_[k], key(k), "must be " + std::string(strict ? "> " : ">= ") + number(min));
   }
 
-  void get_path(const std::string& k, std::filesystem::path& value, const std::filesystem::path& base,
-                bool required, bool must_exist = true) {
+  void get_path(const std::string& k, std::filesystem::path& value, const std::filesystem::path& base, bool required,
+                bool must_exist = true) {
     std::string s;
     get(k, s, required);
     if (!has(k)) return;
@@ -128,7 +128,7 @@ class MapReader {
 
 template <typename Enum>
 inline Enum pick(MapReader& r, const std::string& k, const std::vector<std::pair<std::string, Enum>>& choices,
-          Enum value, bool required) {
+                 Enum value, bool required) {
   std::string s;
   r.get(k, s, required);
   if (!r.has(k)) return value;

@@ -44,11 +44,10 @@ void CandidateSearch::configure(const DetectorOptions& o, cv::Ptr<cv::aruco::Dic
   params_->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;  // refined at full resolution
 }
 
-void CandidateSearch::run(const cv::Mat& region, cv::Point offset, int scale, double min_side_px,
-                          double fine_below_px, std::vector<Candidate>& out) {
+void CandidateSearch::run(const cv::Mat& region, cv::Point offset, int scale, double min_side_px, double fine_below_px,
+                          std::vector<Candidate>& out) {
   if (scale > 1) {
-    cv::resize(region, small_, cv::Size(region.cols / scale, region.rows / scale), 0, 0,
-               cv::INTER_AREA);
+    cv::resize(region, small_, cv::Size(region.cols / scale, region.rows / scale), 0, 0, cv::INTER_AREA);
     pass(small_, offset, scale, std::max(min_side_px, 0.0), 0.0, out);
   } else {
     pass(region, offset, 1, min_side_px, 0.0, out);
@@ -56,8 +55,8 @@ void CandidateSearch::run(const cv::Mat& region, cv::Point offset, int scale, do
   if (fine_below_px > 0) pass(region, offset, 1, min_side_px, fine_below_px * 1.25, out);
 }
 
-void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double min_side_px,
-                           double max_side_px, std::vector<Candidate>& out) {
+void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double min_side_px, double max_side_px,
+                           std::vector<Candidate>& out) {
   const double side = std::max(image.cols, image.rows);
   if (image.cols < 8 || image.rows < 8) return;
   // OpenCV's limits are perimeters as fractions of the larger side of the searched image,
@@ -67,9 +66,9 @@ void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double
   // also runs through the centres of the square's boundary pixels (~4 px short of the
   // perimeter) and a fisheye view or a tilt shortens some sides: 20 % slack on top.
   params_->minMarkerPerimeterRate = 0.8 / std::sqrt(2.0) * 4.0 * min_side_px / s / side;
-  params_->maxMarkerPerimeterRate =
-      max_side_px > 0 ? std::min(options_.max_perimeter_rate, 4.0 * max_side_px / s / side)
-                      : options_.max_perimeter_rate;
+  params_->maxMarkerPerimeterRate = max_side_px > 0
+                                        ? std::min(options_.max_perimeter_rate, 4.0 * max_side_px / s / side)
+                                        : options_.max_perimeter_rate;
   if (params_->maxMarkerPerimeterRate <= params_->minMarkerPerimeterRate) return;
   // A small square shrunk loses its corners to ~1 px of blur: at the default 3 % of the
   // perimeter the polygon approximation of a 12-15 px square keeps extra vertices and the
@@ -92,8 +91,7 @@ void CandidateSearch::pass(const cv::Mat& image, cv::Point offset, int s, double
     if (arithmetic) {
       params_->adaptiveThreshWinSizeMin = windows.front();
       params_->adaptiveThreshWinSizeMax = windows.back();
-      params_->adaptiveThreshWinSizeStep =
-          windows.size() > 1 ? std::max(1, windows[1] - windows[0]) : 1;
+      params_->adaptiveThreshWinSizeStep = windows.size() > 1 ? std::max(1, windows[1] - windows[0]) : 1;
     } else {
       params_->adaptiveThreshWinSizeMin = windows[call];
       params_->adaptiveThreshWinSizeMax = windows[call];
@@ -148,8 +146,8 @@ void drop_duplicates(std::vector<Candidate>& candidates) {
     bool dup = false;
     for (const auto& k : kept) {
       const Point2 pk = centre(k);
-      dup = dup || ((c.id == k.id || c.id < 0) &&
-                    std::hypot(pc.x - pk.x, pc.y - pk.y) < 0.25 * std::min(c.side(), k.side()));
+      dup = dup ||
+            ((c.id == k.id || c.id < 0) && std::hypot(pc.x - pk.x, pc.y - pk.y) < 0.25 * std::min(c.side(), k.side()));
     }
     if (!dup) kept.push_back(c);
   }

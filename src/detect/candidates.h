@@ -8,16 +8,16 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/core.hpp>
 
-#include "ips/detect/detector.h"
 #include "ips/core/observation.h"
+#include "ips/detect/detector.h"
 
 namespace ips::detail {
 
 struct Candidate {
-  int id = -1;  ///< decoded by OpenCV at the search scale, or -1 (to be read at full resolution)
+  int id = -1;                      ///< decoded by OpenCV at the search scale, or -1 (to be read at full resolution)
   std::array<Point2, 4> corners{};  ///< full-image pixels; ArUco order when id >= 0
   bool decoded_at_full_resolution = false;
-  int scale = 1;  ///< of the search that found it (finer scales have better corners)
+  int scale = 1;        ///< of the search that found it (finer scales have better corners)
   double side() const;  ///< mean edge length, px
 };
 
@@ -30,12 +30,12 @@ class CandidateSearch {
   /// `fine_below_px` > 0, the region at full resolution for markers of `min_side_px` up to
   /// `fine_below_px` (the multi-scale case). Appends decoded markers and the undecoded
   /// squares small enough that the search scale may have been too coarse to read them.
-  void run(const cv::Mat& region, cv::Point offset, int scale, double min_side_px,
-           double fine_below_px, std::vector<Candidate>& out);
+  void run(const cv::Mat& region, cv::Point offset, int scale, double min_side_px, double fine_below_px,
+           std::vector<Candidate>& out);
 
  private:
-  void pass(const cv::Mat& image, cv::Point offset, int scale, double min_side_px,
-            double max_side_px, std::vector<Candidate>& out);
+  void pass(const cv::Mat& image, cv::Point offset, int scale, double min_side_px, double max_side_px,
+            std::vector<Candidate>& out);
 
   DetectorOptions options_;
   cv::Ptr<cv::aruco::Dictionary> dictionary_;

@@ -24,8 +24,7 @@ double cell_mean(const cv::Mat& gray, const cv::Matx33d& H, double u, double v) 
       const double fx = x - x0, fy = y - y0;
       const auto* r0 = gray.ptr<std::uint8_t>(y0);
       const auto* r1 = gray.ptr<std::uint8_t>(y0 + 1);
-      sum += (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
-             fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+      sum += (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
       ++n;
     }
   }
@@ -59,8 +58,8 @@ CellReading read_cells(const cv::Mat& gray, const std::array<Point2, 4>& corners
   }
   for (int k = 0; k < cells; ++k) {
     const double t = k + 0.5;
-    for (const auto& [u, v] : {std::pair{t, -0.35}, std::pair{t, cells + 0.35},
-                               std::pair{-0.35, t}, std::pair{cells + 0.35, t}}) {
+    for (const auto& [u, v] :
+         {std::pair{t, -0.35}, std::pair{t, cells + 0.35}, std::pair{-0.35, t}, std::pair{cells + 0.35, t}}) {
       const double m = cell_mean(gray, H, u, v);
       if (m >= 0) quiet.push_back(m);
     }

@@ -61,12 +61,9 @@ int dictionary_id(const std::string& name) {
 DetectionPlan plan_detection(const DetectorOptions& o, cv::Size image) {
   DetectionPlan p;
   const double side = std::max(image.width, image.height);
-  p.min_marker_px = o.min_marker_px > 0
-                        ? o.min_marker_px
-                        : std::max(kAutoMinMarkerPx, kAutoMinMarkerFraction * side);
-  p.scale = o.detect_scale > 0
-                ? o.detect_scale
-                : std::clamp(static_cast<int>(std::floor(p.min_marker_px / kMinCoarseMarkerPx)), 1, 8);
+  p.min_marker_px = o.min_marker_px > 0 ? o.min_marker_px : std::max(kAutoMinMarkerPx, kAutoMinMarkerFraction * side);
+  p.scale = o.detect_scale > 0 ? o.detect_scale
+                               : std::clamp(static_cast<int>(std::floor(p.min_marker_px / kMinCoarseMarkerPx)), 1, 8);
   p.full_resolution_pass = p.scale > 1 && p.min_marker_px < kMinCoarseMarkerPx * p.scale;
   return p;
 }
@@ -85,8 +82,7 @@ Detector::Detector(const DetectorOptions& options) : impl_(std::make_unique<Impl
   impl_->options = options;
   const auto& o = impl_->options;
   if (o.detect_scale < 0 || o.detect_scale > 8) {
-    throw InputError("detector: detect_scale must be 0 (automatic) or 1..8, got " +
-                     std::to_string(o.detect_scale));
+    throw InputError("detector: detect_scale must be 0 (automatic) or 1..8, got " + std::to_string(o.detect_scale));
   }
   if (!(o.min_marker_px >= 0) || !std::isfinite(o.min_marker_px)) {
     throw InputError("detector: min_marker_px must be 0 (automatic) or a positive size in pixels");
@@ -94,8 +90,7 @@ Detector::Detector(const DetectorOptions& options) : impl_(std::make_unique<Impl
   if (o.threshold_windows.empty()) throw InputError("detector: threshold_windows is empty");
   for (int w : o.threshold_windows) {
     if (w < 3 || w % 2 == 0) {
-      throw InputError("detector: threshold window sizes must be odd and >= 3, got " +
-                       std::to_string(w));
+      throw InputError("detector: threshold window sizes must be odd and >= 3, got " + std::to_string(w));
     }
   }
   if (o.refine_half_window_px < 1) throw InputError("detector: refine_half_window_px must be >= 1");
@@ -123,8 +118,7 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const CameraM
   return detect(gray, cv::Rect(0, 0, gray.cols, gray.rows), camera);
 }
 
-std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rect& roi_in,
-                                              const CameraModel* camera) {
+std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rect& roi_in, const CameraModel* camera) {
   if (gray.empty() || gray.type() != CV_8UC1) {
     throw InputError("detector: expected a non-empty 8-bit greyscale image");
   }
@@ -150,10 +144,9 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rec
       y1 = std::max(y1, q.y);
     }
     const double margin = 0.5 * c.side() + 4;
-    const cv::Rect box =
-        cv::Rect(cv::Point(static_cast<int>(x0 - margin), static_cast<int>(y0 - margin)),
-                 cv::Point(static_cast<int>(x1 + margin) + 1, static_cast<int>(y1 + margin) + 1)) &
-        cv::Rect(0, 0, gray.cols, gray.rows);
+    const cv::Rect box = cv::Rect(cv::Point(static_cast<int>(x0 - margin), static_cast<int>(y0 - margin)),
+                                  cv::Point(static_cast<int>(x1 + margin) + 1, static_cast<int>(y1 + margin) + 1)) &
+                         cv::Rect(0, 0, gray.cols, gray.rows);
     if (box.width >= 8 && box.height >= 8) {
       d.search.run(gray(box), box.tl(), 1, plan.min_marker_px, 0.0, d.local);
     }
@@ -239,8 +232,8 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rec
   if (!d.refine.empty()) {
     const int w = o.refine_half_window_px;
     cv::cornerSubPix(gray, d.refine, cv::Size(w, w), cv::Size(-1, -1),
-                     cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
-                                      o.refine_max_iterations, o.refine_epsilon_px));
+                     cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, o.refine_max_iterations,
+                                      o.refine_epsilon_px));
     for (std::size_t j = 0; j < subpix.size(); ++j) {
       for (std::size_t k = 0; k < 4; ++k) {
         const cv::Point2f& c = d.refine[j * 4 + k];
@@ -255,24 +248,22 @@ std::vector<MarkerDetection> Detector::detect(const cv::Mat& gray, const cv::Rec
   for (std::size_t i = 0; i < out.size(); ++i) {
     if (reread[i]) {
       std::array<Point2, 4> c = out[i].corners_px;
-      if (detail::decode_marker(gray, c, *d.dictionary, d.check) != out[i].id ||
-          c[0].x != out[i].corners_px[0].x || c[0].y != out[i].corners_px[0].y)
+      if (detail::decode_marker(gray, c, *d.dictionary, d.check) != out[i].id || c[0].x != out[i].corners_px[0].x ||
+          c[0].y != out[i].corners_px[0].y)
         continue;
     }
-    if (o.max_ambiguous_cells >= 0 &&
-        !detail::verify_marker(gray, out[i].corners_px, out[i].id, *d.codes, d.check))
+    if (o.max_ambiguous_cells >= 0 && !detail::verify_marker(gray, out[i].corners_px, out[i].id, *d.codes, d.check))
       continue;
     kept.push_back(out[i]);
   }
   return kept;
 }
 
-bool Detector::refine_known(const cv::Mat& gray, const MarkerDetection& predicted,
-                            const cv::Rect& valid, const CameraModel* camera, MarkerDetection& out) {
+bool Detector::refine_known(const cv::Mat& gray, const MarkerDetection& predicted, const cv::Rect& valid,
+                            const CameraModel* camera, MarkerDetection& out) {
   Impl& d = *impl_;
   const auto& o = d.options;
-  if (o.refinement != CornerRefinement::kEdges || gray.empty() || gray.type() != CV_8UC1)
-    return false;
+  if (o.refinement != CornerRefinement::kEdges || gray.empty() || gray.type() != CV_8UC1) return false;
   const int cells = d.dictionary->markerSize + 2;
   const cv::Rect area = valid & cv::Rect(0, 0, gray.cols, gray.rows);
   // Every pixel a refinement pass reads (profiles <= 3 + 1 px across the current edges) or
@@ -280,8 +271,7 @@ bool Detector::refine_known(const cv::Mat& gray, const MarkerDetection& predicte
   // lies within a cell + 4 px of the current corners: checked before each pass and after.
   auto inside = [&](const std::array<Point2, 4>& q) {
     double side = 0;
-    for (std::size_t i = 0; i < 4; ++i)
-      side += std::hypot(q[(i + 1) % 4].x - q[i].x, q[(i + 1) % 4].y - q[i].y) / 4;
+    for (std::size_t i = 0; i < 4; ++i) side += std::hypot(q[(i + 1) % 4].x - q[i].x, q[(i + 1) % 4].y - q[i].y) / 4;
     const double m = side / cells + 4;
     for (const auto& p : q) {
       if (!(p.x - m >= area.x && p.y - m >= area.y && p.x + m <= area.x + area.width - 1 &&
@@ -305,8 +295,7 @@ bool Detector::refine_known(const cv::Mat& gray, const MarkerDetection& predicte
     if (!inside(c) || !detail::refine_corners_by_edges(gray, c, cells, camera)) return false;
     if (pass < 1) continue;
     double moved = 0;
-    for (std::size_t k = 0; k < 4; ++k)
-      moved = std::max(moved, std::hypot(c[k].x - before[k].x, c[k].y - before[k].y));
+    for (std::size_t k = 0; k < 4; ++k) moved = std::max(moved, std::hypot(c[k].x - before[k].x, c[k].y - before[k].y));
     if (moved <= kSettledPx) break;
     if (pass + 1 == kMaxPasses) return false;
   }
@@ -314,11 +303,9 @@ bool Detector::refine_known(const cv::Mat& gray, const MarkerDetection& predicte
   // Read as the full search reads a square it decoded itself: the same id, in the same
   // orientation (the corners not rotated), then the same verification.
   std::array<Point2, 4> r = c;
-  if (detail::decode_marker(gray, r, *d.dictionary, d.check) != predicted.id || r[0].x != c[0].x ||
-      r[0].y != c[0].y)
+  if (detail::decode_marker(gray, r, *d.dictionary, d.check) != predicted.id || r[0].x != c[0].x || r[0].y != c[0].y)
     return false;
-  if (o.max_ambiguous_cells >= 0 && !detail::verify_marker(gray, c, predicted.id, *d.codes, d.check))
-    return false;
+  if (o.max_ambiguous_cells >= 0 && !detail::verify_marker(gray, c, predicted.id, *d.codes, d.check)) return false;
   out = {predicted.id, c};
   return true;
 }

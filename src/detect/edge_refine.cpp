@@ -13,8 +13,7 @@ double sample(const cv::Mat& g, double x, double y) {
   const double fx = x - x0, fy = y - y0;
   const std::uint8_t* r0 = g.ptr<std::uint8_t>(y0);
   const std::uint8_t* r1 = g.ptr<std::uint8_t>(y0 + 1);
-  return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
-         fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+  return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
 }
 
 // An edge in its own frame: origin o, unit direction t, unit normal n; the edge is
@@ -105,8 +104,8 @@ bool offset_edges(std::array<Point2, 4>& q, double d) {
   return true;
 }
 
-bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners, int cells,
-                             const CameraModel* camera, const EdgeRefineOptions& o) {
+bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners, int cells, const CameraModel* camera,
+                             const EdgeRefineOptions& o) {
   Point2 centre{0, 0};
   for (const auto& c : corners) {
     centre.x += c.x / 4;
@@ -141,8 +140,7 @@ bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners
     const double step = 0.25;
     const int n_prof = static_cast<int>(std::floor(half / step));
     pts.clear();
-    const int n_samples =
-        std::max(3, static_cast<int>(len * (1 - 2 * o.end_margin) / o.sample_step_px));
+    const int n_samples = std::max(3, static_cast<int>(len * (1 - 2 * o.end_margin) / o.sample_step_px));
     for (int k = 0; k <= n_samples; ++k) {
       const double s = o.end_margin + (1 - 2 * o.end_margin) * k / n_samples;
       const double px = a.x + s * (b.x - a.x), py = a.y + s * (b.y - a.y);
@@ -192,8 +190,7 @@ bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners
       res.push_back(std::abs(edge.offset(p) - (edge.c[0] + sp * (edge.c[1] + sp * edge.c[2]))));
     }
     std::vector<double> sorted = res;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
-                     sorted.end());
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
     const double cut = 3.0 * sorted[sorted.size() / 2] + 1e-12;
     std::vector<Point2> kept;
     for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -207,8 +204,7 @@ bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners
     Point2 p = fc[i];
     if (!meet(edges[(i + 3) % 4], edges[i], p)) return false;
     if (camera != nullptr) p = camera->project(p);
-    if (!std::isfinite(p.x) || std::hypot(p.x - corners[i].x, p.y - corners[i].y) > o.max_shift_px)
-      return false;
+    if (!std::isfinite(p.x) || std::hypot(p.x - corners[i].x, p.y - corners[i].y) > o.max_shift_px) return false;
     out[i] = p;
   }
   corners = out;

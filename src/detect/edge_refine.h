@@ -5,8 +5,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "ips/geometry/camera_model.h"
 #include "ips/core/observation.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips::detail {
 
@@ -25,8 +25,8 @@ struct EdgeRefineOptions {
 /// lines are fitted in pixels (fisheye curvature then costs ~0.05 px). `cells` is the
 /// marker's width in cells (bits + 2 border), which bounds the profile length.
 /// Returns false (corners untouched) when an edge cannot be measured.
-bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners, int cells,
-                             const CameraModel* camera, const EdgeRefineOptions& options = {});
+bool refine_corners_by_edges(const cv::Mat& gray, std::array<Point2, 4>& corners, int cells, const CameraModel* camera,
+                             const EdgeRefineOptions& options = {});
 
 /// Moves each edge of a convex quadrilateral outward (away from its centre) by `d` pixels
 /// along its normal; the new corners are where neighbouring moved edges meet. False (q

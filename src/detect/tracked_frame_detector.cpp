@@ -18,8 +18,7 @@ bool has_end_of_image(const std::vector<std::uint8_t>& jpeg) {
 
 }  // namespace
 
-TrackedFrameDetector::TrackedFrameDetector(const DetectorOptions& detection, const TrackerOptions& tracking,
-                                           int phase)
+TrackedFrameDetector::TrackedFrameDetector(const DetectorOptions& detection, const TrackerOptions& tracking, int phase)
     : detector_(detection), tracker_(tracking, phase) {}
 
 bool TrackedFrameDetector::decode(Frame& frame, const std::vector<cv::Rect>& rois) {
@@ -55,8 +54,7 @@ bool TrackedFrameDetector::detect(Frame& frame, const CameraModel* camera, bool 
   const TrackPlan plan = tracker_.plan(size);
   // An ROI plan with no ROI (nothing tracked is in the image) needs no pixel at all.
   const bool whole = plan.full || whole_image;
-  if ((whole || !plan.rois.empty()) && !decode(frame, whole ? std::vector<cv::Rect>{} : plan.rois))
-    return false;
+  if ((whole || !plan.rois.empty()) && !decode(frame, whole ? std::vector<cv::Rect>{} : plan.rois)) return false;
   if (!tracker_.detect(detector_, frame.gray, plan, camera, out)) {
     // A tracked marker left its ROI: this same frame is searched in full, decoded whole.
     if (!whole && !decode(frame, {})) return false;

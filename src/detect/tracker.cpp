@@ -30,8 +30,7 @@ Point2 centre(const MarkerDetection& d) {
 double side(const MarkerDetection& d) {
   double s = 0;
   for (std::size_t i = 0; i < 4; ++i) {
-    s += std::hypot(d.corners_px[(i + 1) % 4].x - d.corners_px[i].x,
-                    d.corners_px[(i + 1) % 4].y - d.corners_px[i].y);
+    s += std::hypot(d.corners_px[(i + 1) % 4].x - d.corners_px[i].x, d.corners_px[(i + 1) % 4].y - d.corners_px[i].y);
   }
   return s / 4;
 }
@@ -43,14 +42,12 @@ int ceil_to(double v, int a) { return static_cast<int>(std::ceil(v / a)) * a; }
 
 DetectionTracker::DetectionTracker(const TrackerOptions& options, int phase) : options_(options) {
   if (options_.full_search_period < 1 || options_.full_search_period > 1000) {
-    throw InputError("tracker: full_search_period must be 1..1000, got " +
-                     std::to_string(options_.full_search_period));
+    throw InputError("tracker: full_search_period must be 1..1000, got " + std::to_string(options_.full_search_period));
   }
   if (!(options_.roi_margin >= 0.25) || !std::isfinite(options_.roi_margin)) {
     throw InputError("tracker: roi_margin must be at least 0.25 marker sides");
   }
-  phase_ = ((phase % options_.full_search_period) + options_.full_search_period) %
-           options_.full_search_period;
+  phase_ = ((phase % options_.full_search_period) + options_.full_search_period) % options_.full_search_period;
 }
 
 void DetectionTracker::reset() {
@@ -88,8 +85,7 @@ cv::Rect DetectionTracker::roi_of(const Track& t, cv::Size image) const {
 
 TrackPlan DetectionTracker::plan(cv::Size image) const {
   TrackPlan p;
-  if (!options_.enabled || force_full_ || (frame_ + phase_) % options_.full_search_period == 0)
-    return p;
+  if (!options_.enabled || force_full_ || (frame_ + phase_) % options_.full_search_period == 0) return p;
   p.full = false;
   for (const auto& t : tracks_) {
     const cv::Rect r = roi_of(t, image);
@@ -114,8 +110,8 @@ TrackPlan DetectionTracker::plan(cv::Size image) const {
   return p;
 }
 
-bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const TrackPlan& plan,
-                              const CameraModel* camera, std::vector<MarkerDetection>& out) {
+bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const TrackPlan& plan, const CameraModel* camera,
+                              std::vector<MarkerDetection>& out) {
   out.clear();
   if (plan.full) {
     out = detector.detect(gray, camera);
@@ -143,8 +139,8 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
     const MarkerDetection p = predicted(t);
     // The plan's ROI holding this marker's own (merged ROIs hold several); pixels outside
     // the plan's ROIs may not be decoded.
-    const auto holder = std::find_if(plan.rois.begin(), plan.rois.end(),
-                                     [&](const cv::Rect& r) { return (r & own) == own; });
+    const auto holder =
+        std::find_if(plan.rois.begin(), plan.rois.end(), [&](const cv::Rect& r) { return (r & own) == own; });
     MarkerDetection d;
     if (holder != plan.rois.end() && detector.refine_known(gray, p, *holder, camera, d)) {
       add(d);
@@ -170,8 +166,7 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
     bool found = false;
     for (std::size_t i = 0; i < out.size() && !found; ++i) {
       const Point2 c = centre(out[i]);
-      if (!used[i] && out[i].id == t.last.id &&
-          std::hypot(c.x - expected.x, c.y - expected.y) <= r) {
+      if (!used[i] && out[i].id == t.last.id && std::hypot(c.x - expected.x, c.y - expected.y) <= r) {
         used[i] = found = true;
       }
     }
@@ -189,16 +184,14 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
 std::vector<MarkerDetection> DetectionTracker::track(Detector& detector, const cv::Mat& gray,
                                                      const CameraModel* camera) {
   std::vector<MarkerDetection> out;
-  if (!detect(detector, gray, plan(gray.size()), camera, out))
-    detect(detector, gray, TrackPlan{}, camera, out);
+  if (!detect(detector, gray, plan(gray.size()), camera, out)) detect(detector, gray, TrackPlan{}, camera, out);
   return out;
 }
 
 double DetectionTracker::reach(const Track& t) const {
   // How far from its prediction a tracked marker's centre may be found: its ROI.
   const auto elapsed = static_cast<double>(frame_ - t.frame);
-  return (options_.roi_margin + 1) * side(t.last) +
-         std::hypot(t.velocity.x, t.velocity.y) * elapsed + kMinMarginPx;
+  return (options_.roi_margin + 1) * side(t.last) + std::hypot(t.velocity.x, t.velocity.y) * elapsed + kMinMarginPx;
 }
 
 void DetectionTracker::update(const std::vector<MarkerDetection>& found, bool full) {
@@ -216,8 +209,8 @@ void DetectionTracker::update(const std::vector<MarkerDetection>& found, bool fu
       if (matched[i] || tracks_[i].last.id != d.id) continue;
       const auto elapsed = static_cast<double>(frame_ - tracks_[i].frame);
       const Point2 c0 = centre(tracks_[i].last);
-      const double dist = std::hypot(c0.x + tracks_[i].velocity.x * elapsed - c.x,
-                                     c0.y + tracks_[i].velocity.y * elapsed - c.y);
+      const double dist =
+          std::hypot(c0.x + tracks_[i].velocity.x * elapsed - c.x, c0.y + tracks_[i].velocity.y * elapsed - c.y);
       if (dist < best_dist) {
         best_dist = dist;
         best = i;
@@ -233,8 +226,7 @@ void DetectionTracker::update(const std::vector<MarkerDetection>& found, bool fu
     if (best < tracks_.size()) {
       matched[best] = true;
       const Point2 c0 = centre(tracks_[best].last);
-      const auto elapsed =
-          static_cast<double>(std::max<std::int64_t>(1, frame_ - tracks_[best].frame));
+      const auto elapsed = static_cast<double>(std::max<std::int64_t>(1, frame_ - tracks_[best].frame));
       t.velocity = {(c.x - c0.x) / elapsed, (c.y - c0.y) / elapsed};
     }
     next.push_back(t);

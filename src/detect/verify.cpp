@@ -12,7 +12,8 @@ namespace {
 std::vector<std::uint8_t> rotate90(const std::vector<std::uint8_t>& p, int n) {
   std::vector<std::uint8_t> r(p.size());
   for (int y = 0; y < n; ++y) {
-    for (int x = 0; x < n; ++x) r[static_cast<std::size_t>(x * n + (n - 1 - y))] = p[static_cast<std::size_t>(y * n + x)];
+    for (int x = 0; x < n; ++x)
+      r[static_cast<std::size_t>(x * n + (n - 1 - y))] = p[static_cast<std::size_t>(y * n + x)];
   }
   return r;
 }
@@ -29,8 +30,8 @@ CodeBook::CodeBook(const cv::aruco::Dictionary& dict) : bits(dict.markerSize) {
   }
 }
 
-int decode_marker(const cv::Mat& gray, std::array<Point2, 4>& corners,
-                  const cv::aruco::Dictionary& dict, const CellCheck& check, bool* contrasted) {
+int decode_marker(const cv::Mat& gray, std::array<Point2, 4>& corners, const cv::aruco::Dictionary& dict,
+                  const CellCheck& check, bool* contrasted) {
   const int n = dict.markerSize, cells = n + 2;
   const CellReading r = read_cells(gray, corners, cells);
   if (contrasted != nullptr) *contrasted = r.ok && r.contrast() >= check.min_contrast;
@@ -58,8 +59,8 @@ int decode_marker(const cv::Mat& gray, std::array<Point2, 4>& corners,
   return id;
 }
 
-int count_ambiguous_cells(const cv::Mat& gray, const std::array<Point2, 4>& corners, int cells,
-                          double ambiguity, double min_contrast) {
+int count_ambiguous_cells(const cv::Mat& gray, const std::array<Point2, 4>& corners, int cells, double ambiguity,
+                          double min_contrast) {
   const CellReading r = read_cells(gray, corners, cells);
   if (!r.ok || r.contrast() < min_contrast) return cells * cells;
   int ambiguous = 0;
@@ -67,8 +68,8 @@ int count_ambiguous_cells(const cv::Mat& gray, const std::array<Point2, 4>& corn
   return ambiguous;
 }
 
-bool verify_marker(const cv::Mat& gray, const std::array<Point2, 4>& corners, int id,
-                   const CodeBook& book, const CellCheck& check) {
+bool verify_marker(const cv::Mat& gray, const std::array<Point2, 4>& corners, int id, const CodeBook& book,
+                   const CellCheck& check) {
   const int n = book.bits, cells = n + 2;
   const CellReading r = read_cells(gray, corners, cells);
   if (!r.ok || r.contrast() < check.min_contrast) return false;

@@ -8,9 +8,9 @@ void MarkerTracker::start(Track& t, const FusedMarker& m) const {
   t.t_ns = m.t_mono_ns;
   for (int k = 0; k < 3; ++k) {
     t.axis[k].x = {m.p_world[k], 0.0};
-    t.axis[k].P = Eigen::Vector2d(options_.measurement_noise,
-                                  options_.initial_velocity_std * options_.initial_velocity_std)
-                      .asDiagonal();
+    t.axis[k].P =
+        Eigen::Vector2d(options_.measurement_noise, options_.initial_velocity_std * options_.initial_velocity_std)
+            .asDiagonal();
   }
 }
 

@@ -164,7 +164,8 @@ std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std
         f.spread = std::max(f.spread, r);
         sq += r * r;
       }
-      f.covariance = std::max(sq / static_cast<double>(estimates.size()), options_.kalman_options.measurement_noise) * A_inv;
+      f.covariance =
+          std::max(sq / static_cast<double>(estimates.size()), options_.kalman_options.measurement_noise) * A_inv;
       f.velocity = path_velocity(track);
       f.has_velocity = track.path.size() >= 2;
       return f;

@@ -1,8 +1,8 @@
 // CameraModel: OpenCV fisheye (Kannala-Brandt, k1..k4) and pinhole (Brown-Conrady, 4/5/8
-// coefficients, 12 with the thin-prism terms) intrinsics. project() is the closed-form model; undistort() inverts it with
-// Newton iterations run to machine precision, so project(undistort(p)) == p to ~1e-12 px
-// over the whole image (cv::fisheye::undistortPoints stops after 10 fixed-point steps,
-// which leaves up to ~1e-3 px near the border of a 180-degree lens).
+// coefficients, 12 with the thin-prism terms) intrinsics. project() is the closed-form model; undistort() inverts it
+// with Newton iterations run to machine precision, so project(undistort(p)) == p to ~1e-12 px over the whole image
+// (cv::fisheye::undistortPoints stops after 10 fixed-point steps, which leaves up to ~1e-3 px near the border of a
+// 180-degree lens).
 #include "ips/geometry/camera_model.h"
 
 #include <cmath>
@@ -27,8 +27,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 void validate(const std::string& where, CameraModel::Kind kind, cv::Size size, const cv::Matx33d& K,
               const std::vector<double>& D) {
   if (size.width <= 0 || size.height <= 0) {
-    throw InputError(where +
-                     ": key 'image_width'/'image_height': image size must be positive, got " +
+    throw InputError(where + ": key 'image_width'/'image_height': image size must be positive, got " +
                      std::to_string(size.width) + "x" + std::to_string(size.height));
   }
   for (int i = 0; i < 9; ++i) {
@@ -47,8 +46,7 @@ void validate(const std::string& where, CameraModel::Kind kind, cv::Size size, c
     throw InputError(where + ": key 'D': the fisheye model needs 4 coefficients (k1..k4), got " +
                      std::to_string(D.size()));
   }
-  if (kind == CameraModel::Kind::kPinhole && D.size() != 4 && D.size() != 5 && D.size() != 8 &&
-      D.size() != 12) {
+  if (kind == CameraModel::Kind::kPinhole && D.size() != 4 && D.size() != 5 && D.size() != 8 && D.size() != 12) {
     throw InputError(where + ": key 'D': the pinhole model needs 4, 5, 8 or 12 coefficients, got " +
                      std::to_string(D.size()));
   }
@@ -57,17 +55,14 @@ void validate(const std::string& where, CameraModel::Kind kind, cv::Size size, c
 CameraModel::Kind parse_kind(const std::string& where, const std::string& model) {
   if (model == "fisheye") return CameraModel::Kind::kFisheye;
   if (model == "pinhole") return CameraModel::Kind::kPinhole;
-  throw InputError(where + ": key 'model': unknown camera model '" + model +
-                   "' (expected fisheye or pinhole)");
+  throw InputError(where + ": key 'model': unknown camera model '" + model + "' (expected fisheye or pinhole)");
 }
 
 // --- the ipsd YAML form -------------------------------------------------------------
-std::vector<double> yaml_numbers(const std::string& where, const YAML::Node& root,
-                                 const char* key) {
+std::vector<double> yaml_numbers(const std::string& where, const YAML::Node& root, const char* key) {
   const YAML::Node node = root[key];
   if (!node) throw InputError(where + ": missing key '" + key + "'");
-  if (!node.IsSequence())
-    throw InputError(where + ": key '" + key + "': expected a list of numbers");
+  if (!node.IsSequence()) throw InputError(where + ": key '" + key + "': expected a list of numbers");
   std::vector<double> out;
   for (const auto& v : node) {
     try {
@@ -102,8 +97,7 @@ CameraModel load_ipsd_yaml(const std::string& where, const YAML::Node& root) {
   const int h = yaml_int(where, root, "image_height");
   const std::vector<double> k = yaml_numbers(where, root, "K");
   if (k.size() != 9) {
-    throw InputError(where + ": key 'K': expected 9 values (row-major 3x3), got " +
-                     std::to_string(k.size()));
+    throw InputError(where + ": key 'K': expected 9 values (row-major 3x3), got " + std::to_string(k.size()));
   }
   const std::vector<double> d = yaml_numbers(where, root, "D");
   cv::Matx33d K;
@@ -121,8 +115,7 @@ std::string rename_keys(std::string msg, const std::string& k_key, const std::st
 }
 
 // --- OpenCV FileStorage calibration files (calibration samples, calibrateCamera) -----
-cv::FileNode first_of(const cv::FileStorage& fs, std::initializer_list<const char*> keys,
-                      std::string& used) {
+cv::FileNode first_of(const cv::FileStorage& fs, std::initializer_list<const char*> keys, std::string& used) {
   for (const char* k : keys) {
     cv::FileNode n = fs[k];
     if (!n.empty()) {
@@ -179,11 +172,10 @@ CameraModel load_opencv_storage(const std::string& where, const std::filesystem:
   };
   const auto [kmat, kkey] = read_mat({"camera_matrix", "mtx", "K", "cameraMatrix"});
   if (kmat.total() != 9) {
-    throw InputError(where + ": key '" + kkey + "': expected a 3x3 matrix, got " +
-                     std::to_string(kmat.total()) + " values");
+    throw InputError(where + ": key '" + kkey + "': expected a 3x3 matrix, got " + std::to_string(kmat.total()) +
+                     " values");
   }
-  const auto [dmat, dkey] =
-      read_mat({"distortion_coefficients", "dist", "D", "dist_coeffs", "distCoeffs"});
+  const auto [dmat, dkey] = read_mat({"distortion_coefficients", "dist", "D", "dist_coeffs", "distCoeffs"});
   const int w = read_int({"image_width", "img_width", "width"});
   const int h = read_int({"image_height", "img_height", "height"});
 
@@ -297,10 +289,8 @@ Point2 CameraModel::project(Point2 n) const {
     const double x = n.x;
     const double y = n.y;
     const double r2 = x * x + y * y;
-    const double k1 = D_[0], k2 = D_[1], p1 = D_[2], p2 = D_[3], k3 = D_[4], k4 = D_[5], k5 = D_[6],
-                 k6 = D_[7];
-    const double radial =
-        (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)));
+    const double k1 = D_[0], k2 = D_[1], p1 = D_[2], p2 = D_[3], k3 = D_[4], k4 = D_[5], k5 = D_[6], k6 = D_[7];
+    const double radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)));
     xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
     yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
     if (D_.size() == 12) {  // thin prism
@@ -362,8 +352,7 @@ Point2 CameraModel::undistort(Point2 px) const {
 }
 
 void CameraModel::undistort(std::span<const Point2> px, std::span<Point2> norm) const {
-  if (px.size() != norm.size())
-    throw std::invalid_argument("CameraModel::undistort: size mismatch");
+  if (px.size() != norm.size()) throw std::invalid_argument("CameraModel::undistort: size mismatch");
   for (std::size_t i = 0; i < px.size(); ++i) norm[i] = undistort(px[i]);
 }
 

@@ -15,8 +15,7 @@ double polygon_area_px(const std::array<Point2, 4>& c) {
   return std::abs(twice) / 2.0;
 }
 
-CameraObservation locate_marker(const MarkerDetection& detection, const CameraModel& camera,
-                                double edge_length) {
+CameraObservation locate_marker(const MarkerDetection& detection, const CameraModel& camera, double edge_length) {
   CameraObservation obs;
   obs.id = detection.id;
   obs.edge_length = edge_length;

@@ -82,8 +82,8 @@ int integer(const std::string& where, const YAML::Node& n, const std::string& ke
 // An !!opencv-matrix: rows x cols (at most 16 x 16, all K and D need), one channel of dt d
 // (double), f (float: the values are rounded to float, as OpenCV's reader does) or i (int),
 // rows*cols finite numbers in data. Row-major values.
-std::vector<double> matrix(const std::string& where, const YAML::Node& root,
-                           std::initializer_list<const char*> keys, std::string& key) {
+std::vector<double> matrix(const std::string& where, const YAML::Node& root, std::initializer_list<const char*> keys,
+                           std::string& key) {
   const YAML::Node n = first_of(root, keys, key);
   if (!n) throw InputError(where + ": missing key '" + key + "'");
   const std::string tag = n.Tag();
@@ -103,8 +103,7 @@ std::vector<double> matrix(const std::string& where, const YAML::Node& root,
     throw InputError(at(where, dt) + ": key '" + key + ".dt': '" + type +
                      "' is not a one-channel number type (d, f or i)");
   const YAML::Node data = n["data"];
-  if (!data.IsSequence())
-    throw InputError(at(where, data) + ": key '" + key + ".data': expected a list of numbers");
+  if (!data.IsSequence()) throw InputError(at(where, data) + ": key '" + key + ".data': expected a list of numbers");
   if (data.size() != static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols))
     throw InputError(at(where, data) + ": key '" + key + "': rows x cols = " + std::to_string(rows * cols) +
                      " but data has " + std::to_string(data.size()) + " values");

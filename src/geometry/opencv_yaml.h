@@ -14,8 +14,8 @@ namespace ips::detail {
 /// The numbers of an OpenCV calibration file, checked as far as the file's own format goes
 /// (shapes, dt, finite numbers, integer sizes); the camera model's rules are the caller's.
 struct OpenCvIntrinsics {
-  std::string model;       // the `model` key (fisheye/pinhole), empty if absent
-  bool fisheye = false;    // the calibration sample's `fisheye_model` flag, nonzero
+  std::string model;     // the `model` key (fisheye/pinhole), empty if absent
+  bool fisheye = false;  // the calibration sample's `fisheye_model` flag, nonzero
   int width = 0, height = 0;
   std::vector<double> K, D;
   std::string k_key, d_key;  // the keys as spelled in the file (camera_matrix, mtx, ...)

@@ -97,8 +97,7 @@ class AnnMapper final : public Mapper {
       for (std::size_t i = 0; i < m; ++i)
         yn[static_cast<Eigen::Index>(i)] = (world[i][k] - out_offset_[k]) * out_scale_[k] - 1.0;
       const double decay = std::sqrt(kDecay);
-      const ResidualFunction f = [&](const Eigen::VectorXd& p, Eigen::VectorXd& r,
-                                     Eigen::MatrixXd* J) {
+      const ResidualFunction f = [&](const Eigen::VectorXd& p, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
         r.resize(static_cast<Eigen::Index>(m) + np);
         if (J != nullptr) J->setZero(static_cast<Eigen::Index>(m) + np, np);
         std::array<double, 5 * 16 + 1> row{};
@@ -159,15 +158,13 @@ class AnnMapper final : public Mapper {
     out_offset_ = get_vector(p, "out_offset", 3);
     out_scale_ = get_vector(p, "out_scale", 3);
     const auto& nets = member(p, "networks");
-    if (!nets.is_array() || nets.size() != 3)
-      throw InputError("parameter 'networks': expected 3 networks (x, y, z)");
+    if (!nets.is_array() || nets.size() != 3) throw InputError("parameter 'networks': expected 3 networks (x, y, z)");
     for (std::size_t k = 0; k < 3; ++k) {
       const nlohmann::json wrap = {{"networks[" + std::to_string(k) + "]", nets[k]}};
       weights_[k] = get_vector(wrap, "networks[" + std::to_string(k) + "]", n_params(hidden_));
     }
     for (int k = 0; k < 3; ++k)
-      if (in_scale_[k] == 0.0 || out_scale_[k] == 0.0)
-        throw InputError("parameter 'in_scale'/'out_scale': zero scale");
+      if (in_scale_[k] == 0.0 || out_scale_[k] == 0.0) throw InputError("parameter 'in_scale'/'out_scale': zero scale");
   }
 
  private:

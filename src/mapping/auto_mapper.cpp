@@ -9,8 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ips/mapping/cross_validation.h"
 #include "ips/core/error.h"
+#include "ips/mapping/cross_validation.h"
 #include "mapping/json_params.h"
 #include "mapping/mappers.h"
 
@@ -32,8 +32,8 @@ class AutoMapper final : public Mapper {
     const int folds = std::min<int>(options.folds, static_cast<int>(cam.size()));
     if (folds < 2) throw InputError("auto: needs at least 2 folds");
     // Smallest training fold in k-fold: n - ceil(n / k).
-    const std::size_t train_size = cam.size() - (cam.size() + static_cast<std::size_t>(folds) - 1) /
-                                                    static_cast<std::size_t>(folds);
+    const std::size_t train_size =
+        cam.size() - (cam.size() + static_cast<std::size_t>(folds) - 1) / static_cast<std::size_t>(folds);
     nlohmann::json table = nlohmann::json::object();
     std::string best_name;
     double best = std::numeric_limits<double>::infinity();
@@ -56,8 +56,7 @@ class AutoMapper final : public Mapper {
         best_name = name;
       }
     }
-    if (best_name.empty())
-      throw InputError("auto: no method could be cross-validated on these pairs");
+    if (best_name.empty()) throw InputError("auto: no method could be cross-validated on these pairs");
     auto chosen = make_mapper(best_name);
     chosen->fit(cam, world, options);
     chosen_ = std::move(chosen);
@@ -72,12 +71,9 @@ class AutoMapper final : public Mapper {
   }
 
   nlohmann::json to_json() const override {
-    return {{"chosen", chosen_->method()},
-            {"metric", metric_name(metric_)},
-            {"heights_known", heights_known_},
-            {"folds", folds_},
-            {"cv_mean_error", table_},
-            {"model", chosen_->to_json()}};
+    return {{"chosen", chosen_->method()},     {"metric", metric_name(metric_)},
+            {"heights_known", heights_known_}, {"folds", folds_},
+            {"cv_mean_error", table_},         {"model", chosen_->to_json()}};
   }
 
   void from_json(const nlohmann::json& p) override {
@@ -90,8 +86,7 @@ class AutoMapper final : public Mapper {
     // Files written before the key existed: plane competed only when heights were known.
     heights_known_ = name == "plane";
     if (p.contains("heights_known")) {
-      if (!p["heights_known"].is_boolean())
-        throw InputError("parameter 'heights_known': expected true or false");
+      if (!p["heights_known"].is_boolean()) throw InputError("parameter 'heights_known': expected true or false");
       heights_known_ = p["heights_known"].get<bool>();
     }
     table_ = member(p, "cv_mean_error");

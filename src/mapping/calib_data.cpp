@@ -14,13 +14,11 @@
 namespace ips {
 namespace {
 
-constexpr std::array<std::string_view, 7> kRequired = {"camera", "xc", "yc", "zc",
-                                                       "xw",     "yw", "zw"};
+constexpr std::array<std::string_view, 7> kRequired = {"camera", "xc", "yc", "zc", "xw", "yw", "zw"};
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
-    s.remove_suffix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
   return s;
 }
 
@@ -38,14 +36,10 @@ std::vector<std::string_view> split(std::string_view line) {
   }
 }
 
-std::string where(const std::string& name, std::size_t line) {
-  return name + ":" + std::to_string(line);
-}
+std::string where(const std::string& name, std::size_t line) { return name + ":" + std::to_string(line); }
 
-double parse_number(std::string_view text, const std::string& at, std::string_view column,
-                    std::size_t column_index) {
-  const std::string col =
-      "column '" + std::string(column) + "' (" + std::to_string(column_index + 1) + ")";
+double parse_number(std::string_view text, const std::string& at, std::string_view column, std::size_t column_index) {
+  const std::string col = "column '" + std::string(column) + "' (" + std::to_string(column_index + 1) + ")";
   if (text.empty()) throw InputError(at + ": " + col + ": empty value");
   std::string_view digits = text;
   if (digits.front() == '+') digits.remove_prefix(1);
@@ -55,8 +49,7 @@ double parse_number(std::string_view text, const std::string& at, std::string_vi
     throw InputError(at + ": " + col + ": value '" + std::string(text) + "' is out of range");
   if (ec != std::errc() || end != digits.data() + digits.size())
     throw InputError(at + ": " + col + ": '" + std::string(text) + "' is not a number");
-  if (!std::isfinite(value))
-    throw InputError(at + ": " + col + ": '" + std::string(text) + "' is not a finite number");
+  if (!std::isfinite(value)) throw InputError(at + ": " + col + ": '" + std::string(text) + "' is not a finite number");
   return value;
 }
 
@@ -88,9 +81,7 @@ CalibData parse_calib_csv(std::istream& in, const std::string& name) {
     for (auto field : split(line)) header.emplace_back(field);
     break;
   }
-  if (header.empty())
-    throw InputError(name + ": empty file (expected a header line " +
-                     "'camera,xc,yc,zc,xw,yw,zw')");
+  if (header.empty()) throw InputError(name + ": empty file (expected a header line " + "'camera,xc,yc,zc,xw,yw,zw')");
   const std::size_t header_line = line_no;
   std::map<std::string, std::size_t> index;
   for (std::size_t i = 0; i < header.size(); ++i) {
@@ -102,8 +93,8 @@ CalibData parse_calib_csv(std::istream& in, const std::string& name) {
   for (std::size_t k = 0; k < kRequired.size(); ++k) {
     const auto it = index.find(std::string(kRequired[k]));
     if (it == index.end())
-      throw InputError(where(name, header_line) + ": missing required column '" +
-                       std::string(kRequired[k]) + "' (header must name camera,xc,yc,zc,xw,yw,zw)");
+      throw InputError(where(name, header_line) + ": missing required column '" + std::string(kRequired[k]) +
+                       "' (header must name camera,xc,yc,zc,xw,yw,zw)");
     col[k] = it->second;
   }
 
@@ -118,8 +109,7 @@ CalibData parse_calib_csv(std::istream& in, const std::string& name) {
                        std::to_string(header.size()));
     const std::string camera(fields[col[0]]);
     if (camera.empty())
-      throw InputError(at + ": column 'camera' (" + std::to_string(col[0] + 1) +
-                       "): empty camera name");
+      throw InputError(at + ": column 'camera' (" + std::to_string(col[0] + 1) + "): empty camera name");
     std::array<double, 6> v{};
     for (std::size_t k = 1; k < kRequired.size(); ++k)
       v[k - 1] = parse_number(fields[col[k]], at, kRequired[k], col[k]);

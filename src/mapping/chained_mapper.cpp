@@ -11,13 +11,10 @@ namespace {
 
 class ChainedMapper final : public Mapper {
  public:
-  explicit ChainedMapper(std::unique_ptr<Mapper> inner)
-      : rt_(make_rigid()), inner_(std::move(inner)) {}
+  explicit ChainedMapper(std::unique_ptr<Mapper> inner) : rt_(make_rigid()), inner_(std::move(inner)) {}
 
   std::string method() const override { return "rt+" + inner_->method(); }
-  std::size_t min_points() const override {
-    return std::max(rt_->min_points(), inner_->min_points());
-  }
+  std::size_t min_points() const override { return std::max(rt_->min_points(), inner_->min_points()); }
   bool needs_height() const override { return inner_->needs_height(); }
 
   void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
@@ -33,9 +30,7 @@ class ChainedMapper final : public Mapper {
     return inner_->predict(rt_->predict(cam), known_height);
   }
 
-  nlohmann::json to_json() const override {
-    return {{"rt", rt_->to_json()}, {"inner", inner_->to_json()}};
-  }
+  nlohmann::json to_json() const override { return {{"rt", rt_->to_json()}, {"inner", inner_->to_json()}}; }
 
   void from_json(const nlohmann::json& p) override {
     rt_->from_json(member(p, "rt"));

@@ -34,8 +34,7 @@ ErrorStats summarize_errors(std::span<const double> errors) {
   return s;
 }
 
-CameraErrors compare_points(std::span<const Eigen::Vector3d> predicted,
-                            std::span<const Eigen::Vector3d> truth) {
+CameraErrors compare_points(std::span<const Eigen::Vector3d> predicted, std::span<const Eigen::Vector3d> truth) {
   if (predicted.size() != truth.size() || predicted.empty())
     throw std::invalid_argument("compare_points: sizes differ or empty");
   std::vector<double> e3(predicted.size()), e2(predicted.size());

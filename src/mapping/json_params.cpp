@@ -35,17 +35,15 @@ const nlohmann::json& member(const nlohmann::json& obj, const std::string& key) 
   return *it;
 }
 
-double get_number(const nlohmann::json& obj, const std::string& key) {
-  return finite_number(member(obj, key), key);
-}
+double get_number(const nlohmann::json& obj, const std::string& key) { return finite_number(member(obj, key), key); }
 
 int get_int(const nlohmann::json& obj, const std::string& key, int lo, int hi) {
   const auto& v = member(obj, key);
   if (!v.is_number_integer()) throw InputError("parameter '" + key + "': expected an integer");
   const auto i = v.get<long long>();
   if (i < lo || i > hi)
-    throw InputError("parameter '" + key + "': " + std::to_string(i) + " is outside [" +
-                     std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    throw InputError("parameter '" + key + "': " + std::to_string(i) + " is outside [" + std::to_string(lo) + ", " +
+                     std::to_string(hi) + "]");
   return static_cast<int>(i);
 }
 
@@ -66,8 +64,7 @@ Eigen::VectorXd get_vector(const nlohmann::json& obj, const std::string& key, Ei
   return out;
 }
 
-Eigen::MatrixXd get_rows(const nlohmann::json& obj, const std::string& key, Eigen::Index rows,
-                         Eigen::Index cols) {
+Eigen::MatrixXd get_rows(const nlohmann::json& obj, const std::string& key, Eigen::Index rows, Eigen::Index cols) {
   const auto& v = member(obj, key);
   if (!v.is_array() || v.empty() || (rows >= 0 && static_cast<Eigen::Index>(v.size()) != rows))
     throw InputError("parameter '" + key + "': expected an array of " +

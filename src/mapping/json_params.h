@@ -25,7 +25,6 @@ std::string get_string(const nlohmann::json& obj, const std::string& key);
 /// An array of finite numbers; `size` < 0 accepts any non-empty length.
 Eigen::VectorXd get_vector(const nlohmann::json& obj, const std::string& key, Eigen::Index size);
 /// An array of `rows` arrays of `cols` finite numbers (rows < 0: any non-zero count).
-Eigen::MatrixXd get_rows(const nlohmann::json& obj, const std::string& key, Eigen::Index rows,
-                         Eigen::Index cols);
+Eigen::MatrixXd get_rows(const nlohmann::json& obj, const std::string& key, Eigen::Index rows, Eigen::Index cols);
 
 }  // namespace ips::mapping

@@ -105,8 +105,7 @@ class KrigingMapper final : public Mapper {
   std::string method() const override { return regression_ ? "kr" : "ki"; }
   std::size_t min_points() const override { return 6; }
 
-  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
-           const FitOptions&) override {
+  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world, const FitOptions&) override {
     check_fit_input(*this, cam, world);
     const auto m = static_cast<Eigen::Index>(cam.size());
     Eigen::MatrixXd X(m, 3), Y(m, 3);
@@ -159,9 +158,8 @@ class KrigingMapper final : public Mapper {
     }
     // Groups of outputs that share one theta: each output alone, or (DACE with a 3-column Y)
     // all three together.
-    const std::vector<std::vector<int>> groups = kJointOutputs
-                                                     ? std::vector<std::vector<int>>{{0, 1, 2}}
-                                                     : std::vector<std::vector<int>>{{0}, {1}, {2}};
+    const std::vector<std::vector<int>> groups =
+        kJointOutputs ? std::vector<std::vector<int>>{{0, 1, 2}} : std::vector<std::vector<int>>{{0}, {1}, {2}};
     for (const auto& group : groups) {
       pb.Y.resize(m, static_cast<Eigen::Index>(group.size()));
       for (std::size_t g = 0; g < group.size(); ++g) {
@@ -192,9 +190,8 @@ class KrigingMapper final : public Mapper {
       objective(pb, tracker.best_x.data(), &sol);
       for (std::size_t g = 0; g < group.size(); ++g) {
         auto& out = outputs_[static_cast<std::size_t>(group[g])];
-        out.theta =
-            Eigen::Vector3d(std::pow(10.0, tracker.best_x[0]), std::pow(10.0, tracker.best_x[1]),
-                            std::pow(10.0, tracker.best_x[2]));
+        out.theta = Eigen::Vector3d(std::pow(10.0, tracker.best_x[0]), std::pow(10.0, tracker.best_x[1]),
+                                    std::pow(10.0, tracker.best_x[2]));
         out.log10_nugget = regression_ ? tracker.best_x[3] : std::log10(pb.min_nugget);
         out.beta = sol.beta.col(static_cast<Eigen::Index>(g));
         out.gamma = sol.gamma.col(static_cast<Eigen::Index>(g));
@@ -211,8 +208,7 @@ class KrigingMapper final : public Mapper {
       double y = o.beta[0] + o.beta[1] * s[0] + o.beta[2] * s[1] + o.beta[3] * s[2];
       for (Eigen::Index i = 0; i < m; ++i) {
         const double d0 = s[0] - S_(i, 0), d1 = s[1] - S_(i, 1), d2 = s[2] - S_(i, 2);
-        y += o.gamma[i] *
-             std::exp(-(o.theta[0] * d0 * d0 + o.theta[1] * d1 * d1 + o.theta[2] * d2 * d2));
+        y += o.gamma[i] * std::exp(-(o.theta[0] * d0 * d0 + o.theta[1] * d1 * d1 + o.theta[2] * d2 * d2));
       }
       out[k] = y * y_std_[k] + y_mean_[k];
     }
@@ -238,8 +234,7 @@ class KrigingMapper final : public Mapper {
 
   void from_json(const nlohmann::json& p) override {
     if (get_string(p, "trend") != "regpoly1") throw InputError("parameter 'trend': unsupported");
-    if (get_string(p, "correlation") != "gauss")
-      throw InputError("parameter 'correlation': unsupported");
+    if (get_string(p, "correlation") != "gauss") throw InputError("parameter 'correlation': unsupported");
     x_mean_ = get_vector(p, "x_mean", 3);
     x_std_ = get_vector(p, "x_std", 3);
     y_mean_ = get_vector(p, "y_mean", 3);
@@ -248,8 +243,7 @@ class KrigingMapper final : public Mapper {
       throw InputError("parameter 'x_std'/'y_std': must be positive");
     S_ = get_rows(p, "sites", -1, 3);
     const auto& outs = member(p, "outputs");
-    if (!outs.is_array() || outs.size() != 3)
-      throw InputError("parameter 'outputs': expected 3 outputs (x, y, z)");
+    if (!outs.is_array() || outs.size() != 3) throw InputError("parameter 'outputs': expected 3 outputs (x, y, z)");
     for (std::size_t k = 0; k < 3; ++k) {
       const auto& o = outs[k];
       auto& dst = outputs_[k];
@@ -283,8 +277,6 @@ class KrigingMapper final : public Mapper {
 
 }  // namespace
 
-std::unique_ptr<Mapper> make_kriging(bool regression) {
-  return std::make_unique<KrigingMapper>(regression);
-}
+std::unique_ptr<Mapper> make_kriging(bool regression) { return std::make_unique<KrigingMapper>(regression); }
 
 }  // namespace ips::mapping

@@ -7,8 +7,7 @@
 
 namespace ips::mapping {
 
-LmResult levenberg_marquardt(const ResidualFunction& f, Eigen::VectorXd p,
-                             const LmOptions& options) {
+LmResult levenberg_marquardt(const ResidualFunction& f, Eigen::VectorXd p, const LmOptions& options) {
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   f(p, r, &J);
@@ -45,8 +44,7 @@ LmResult levenberg_marquardt(const ResidualFunction& f, Eigen::VectorXd p,
   return LmResult{p, cost, it};
 }
 
-Eigen::MatrixXd numeric_jacobian(const ResidualFunction& f, const Eigen::VectorXd& p,
-                                 Eigen::Index residual_count) {
+Eigen::MatrixXd numeric_jacobian(const ResidualFunction& f, const Eigen::VectorXd& p, Eigen::Index residual_count) {
   Eigen::MatrixXd J(residual_count, p.size());
   Eigen::VectorXd q = p, rp, rm;
   for (Eigen::Index k = 0; k < p.size(); ++k) {

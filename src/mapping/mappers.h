@@ -20,8 +20,8 @@ std::unique_ptr<Mapper> make_auto();                                  ///< "auto
 
 /// Kabsch: the rotation R (det +1) and translation t minimising sum |R a_i + t - b_i|^2.
 /// Throws ips::InputError if the points are (nearly) collinear.
-void kabsch(std::span<const Eigen::Vector3d> a, std::span<const Eigen::Vector3d> b,
-            Eigen::Matrix3d& R, Eigen::Vector3d& t);
+void kabsch(std::span<const Eigen::Vector3d> a, std::span<const Eigen::Vector3d> b, Eigen::Matrix3d& R,
+            Eigen::Vector3d& t);
 
 /// Throws ips::InputError unless cam and world have the same size >= min_points.
 void check_fit_input(const Mapper& mapper, std::span<const Eigen::Vector3d> cam,

@@ -44,8 +44,7 @@ ModelSet load_model_file(const std::filesystem::path& path) {
     throw InputError(name + ": model file has no integer \"version\"");
   if (doc["version"].get<long long>() != kVersion)
     throw InputError(name + ": model file version " + doc["version"].dump() +
-                     " is not supported (this build reads version " + std::to_string(kVersion) +
-                     ")");
+                     " is not supported (this build reads version " + std::to_string(kVersion) + ")");
   if (!doc.contains("cameras") || !doc["cameras"].is_object() || doc["cameras"].empty())
     throw InputError(name + ": \"cameras\" must be a non-empty object");
 
@@ -53,10 +52,8 @@ ModelSet load_model_file(const std::filesystem::path& path) {
   for (const auto& [camera, entry] : doc["cameras"].items()) {
     const std::string at = name + ": camera '" + camera + "'";
     if (!entry.is_object()) throw InputError(at + ": expected an object");
-    if (!entry.contains("method") || !entry["method"].is_string())
-      throw InputError(at + ": missing \"method\"");
-    if (!entry.contains("params") || !entry["params"].is_object())
-      throw InputError(at + ": missing \"params\" object");
+    if (!entry.contains("method") || !entry["method"].is_string()) throw InputError(at + ": missing \"method\"");
+    if (!entry.contains("params") || !entry["params"].is_object()) throw InputError(at + ": missing \"params\" object");
     CameraModelEntry model;
     try {
       model.mapper = make_mapper(entry["method"].get<std::string>());
@@ -80,14 +77,12 @@ void save_model_file(const ModelSet& models, const std::filesystem::path& path) 
   doc["cameras"] = nlohmann::json::object();
   for (const auto& [camera, entry] : models.cameras) {
     if (!entry.mapper) throw std::invalid_argument("save_model_file: camera without a mapper");
-    doc["cameras"][camera] = {{"method", entry.mapper->method()},
-                              {"params", entry.mapper->to_json()},
-                              {"training", entry.training}};
+    doc["cameras"][camera] = {
+        {"method", entry.mapper->method()}, {"params", entry.mapper->to_json()}, {"training", entry.training}};
   }
   const std::string text = doc.dump(1) + "\n";
 
-  const std::filesystem::path tmp =
-      path.string() + ".tmp." + std::to_string(static_cast<long long>(::getpid()));
+  const std::filesystem::path tmp = path.string() + ".tmp." + std::to_string(static_cast<long long>(::getpid()));
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw InputError(path.string() + ": cannot write (" + tmp.string() + ")");

@@ -13,8 +13,8 @@
 #include <Eigen/LU>
 #include <nlohmann/json.hpp>
 
-#include "ips/mapping/cross_validation.h"
 #include "ips/core/error.h"
+#include "ips/mapping/cross_validation.h"
 #include "mapping/json_params.h"
 #include "mapping/levenberg_marquardt.h"
 #include "mapping/mappers.h"
@@ -47,8 +47,7 @@ Eigen::Vector3d ray_direction(const Pose& pose, const Eigen::Vector3d& cam) {
 Eigen::Vector2d intersect(const Pose& pose, const Eigen::Vector3d& cam, double h) {
   const Eigen::Vector3d d = ray_direction(pose, cam);
   const double s = (h - pose.t.z()) / d.z();
-  if (!(s > 0.0) || !std::isfinite(s))
-    return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (!(s > 0.0) || !std::isfinite(s)) return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   return pose.t.head<2>() + s * d.head<2>();
 }
 
@@ -56,8 +55,8 @@ Pose pose_from_params(const Pose& base, const Eigen::VectorXd& p, int radial_ter
   Pose pose;
   const Eigen::Vector3d w = p.head<3>();
   const double angle = w.norm();
-  const Eigen::Matrix3d dR = angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
-                                         : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d dR =
+      angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
   pose.R = base.R * dR;
   pose.t = base.t + p.segment<3>(3);
   pose.k1 = radial_terms >= 1 ? p[6] : 0.0;
@@ -65,8 +64,7 @@ Pose pose_from_params(const Pose& base, const Eigen::VectorXd& p, int radial_ter
   return pose;
 }
 
-Pose fit_pose(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
-              int radial_terms) {
+Pose fit_pose(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world, int radial_terms) {
   Pose base;
   kabsch(cam, world, base.R, base.t);  // rigid fit of the 3-D points: a good starting pose
   const auto m = static_cast<Eigen::Index>(cam.size());
@@ -77,25 +75,22 @@ Pose fit_pose(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vecto
       const auto& w = world[static_cast<std::size_t>(i)];
       const Eigen::Vector2d xy = intersect(pose, cam[static_cast<std::size_t>(i)], w.z());
       // A ray that misses the plane costs a large finite residual so LM backs off.
-      r.segment<2>(2 * i) =
-          xy.allFinite() ? Eigen::Vector2d(xy - w.head<2>()) : Eigen::Vector2d(1e3, 1e3);
+      r.segment<2>(2 * i) = xy.allFinite() ? Eigen::Vector2d(xy - w.head<2>()) : Eigen::Vector2d(1e3, 1e3);
     }
   };
-  const ResidualFunction with_jacobian = [&](const Eigen::VectorXd& p, Eigen::VectorXd& r,
-                                             Eigen::MatrixXd* J) {
+  const ResidualFunction with_jacobian = [&](const Eigen::VectorXd& p, Eigen::VectorXd& r, Eigen::MatrixXd* J) {
     f(p, r, nullptr);
     if (J != nullptr) *J = numeric_jacobian(f, p, 2 * m);
   };
   LmOptions lm;
   lm.max_iterations = 100;
   lm.scale_damping = true;
-  const LmResult res =
-      levenberg_marquardt(with_jacobian, Eigen::VectorXd::Zero(6 + radial_terms), lm);
+  const LmResult res = levenberg_marquardt(with_jacobian, Eigen::VectorXd::Zero(6 + radial_terms), lm);
   return pose_from_params(base, res.params, radial_terms);
 }
 
-double cv_mean_error_2d(std::span<const Eigen::Vector3d> cam,
-                        std::span<const Eigen::Vector3d> world, int radial_terms) {
+double cv_mean_error_2d(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
+                        int radial_terms) {
   const auto fold = fold_assignment(cam.size(), kSelectionFolds);
   double sum = 0.0;
   for (int k = 0; k < kSelectionFolds; ++k) {
@@ -121,8 +116,7 @@ class PlaneMapper final : public Mapper {
   std::size_t min_points() const override { return 6; }
   bool needs_height() const override { return true; }
 
-  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
-           const FitOptions&) override {
+  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world, const FitOptions&) override {
     check_fit_input(*this, cam, world);
     for (std::size_t i = 0; i < cam.size(); ++i)
       if (!(cam[i].z() > 0.0)) throw InputError("plane: a pair has zc <= 0 (behind the camera)");
@@ -169,8 +163,7 @@ class PlaneMapper final : public Mapper {
   void from_json(const nlohmann::json& p) override {
     Pose pose;
     pose.R = get_rows(p, "R", 3, 3);
-    if ((pose.R.transpose() * pose.R - Eigen::Matrix3d::Identity()).norm() > 1e-9 ||
-        pose.R.determinant() < 0.0)
+    if ((pose.R.transpose() * pose.R - Eigen::Matrix3d::Identity()).norm() > 1e-9 || pose.R.determinant() < 0.0)
       throw InputError("parameter 'R': not a rotation matrix");
     pose.t = get_vector(p, "t", 3);
     radial_terms_ = get_int(p, "radial_terms", 0, kMaxRadialTerms);

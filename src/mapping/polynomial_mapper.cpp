@@ -25,8 +25,7 @@ class PolynomialMapper final : public Mapper {
   std::string method() const override { return "pr"; }
   std::size_t min_points() const override { return kTerms; }
 
-  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
-           const FitOptions&) override {
+  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world, const FitOptions&) override {
     check_fit_input(*this, cam, world);
     const auto m = static_cast<Eigen::Index>(cam.size());
     Eigen::MatrixXd A(m, kTerms), Y(m, 3);
@@ -36,14 +35,12 @@ class PolynomialMapper final : public Mapper {
     }
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
     if (qr.rank() < kTerms)
-      throw InputError("pr: the points do not determine a quadratic (regressor rank " +
-                       std::to_string(qr.rank()) + " < 10; they lie on a quadric or plane)");
+      throw InputError("pr: the points do not determine a quadratic (regressor rank " + std::to_string(qr.rank()) +
+                       " < 10; they lie on a quadric or plane)");
     C_ = qr.solve(Y).transpose();
   }
 
-  Eigen::Vector3d predict(const Eigen::Vector3d& cam, double) const override {
-    return C_ * regressors(cam);
-  }
+  Eigen::Vector3d predict(const Eigen::Vector3d& cam, double) const override { return C_ * regressors(cam); }
 
   nlohmann::json to_json() const override {
     return {{"terms", "1,x,y,z,xy,xz,yz,x2,y2,z2"}, {"coefficients", to_json_rows(C_)}};

@@ -16,13 +16,12 @@ void check_fit_input(const Mapper& mapper, std::span<const Eigen::Vector3d> cam,
     throw InputError(mapper.method() + ": " + std::to_string(cam.size()) + " camera points but " +
                      std::to_string(world.size()) + " world points");
   if (cam.size() < mapper.min_points())
-    throw InputError("method '" + mapper.method() + "' needs at least " +
-                     std::to_string(mapper.min_points()) + " pairs, got " +
-                     std::to_string(cam.size()));
+    throw InputError("method '" + mapper.method() + "' needs at least " + std::to_string(mapper.min_points()) +
+                     " pairs, got " + std::to_string(cam.size()));
 }
 
-void kabsch(std::span<const Eigen::Vector3d> a, std::span<const Eigen::Vector3d> b,
-            Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+void kabsch(std::span<const Eigen::Vector3d> a, std::span<const Eigen::Vector3d> b, Eigen::Matrix3d& R,
+            Eigen::Vector3d& t) {
   const double n = static_cast<double>(a.size());
   Eigen::Vector3d ca = Eigen::Vector3d::Zero(), cb = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < a.size(); ++i) {
@@ -54,19 +53,14 @@ class RigidMapper final : public Mapper {
   std::string method() const override { return "rt"; }
   std::size_t min_points() const override { return 3; }
 
-  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world,
-           const FitOptions&) override {
+  void fit(std::span<const Eigen::Vector3d> cam, std::span<const Eigen::Vector3d> world, const FitOptions&) override {
     check_fit_input(*this, cam, world);
     kabsch(cam, world, R_, t_);
   }
 
-  Eigen::Vector3d predict(const Eigen::Vector3d& cam, double) const override {
-    return R_ * cam + t_;
-  }
+  Eigen::Vector3d predict(const Eigen::Vector3d& cam, double) const override { return R_ * cam + t_; }
 
-  nlohmann::json to_json() const override {
-    return {{"R", to_json_rows(R_)}, {"t", to_json_array(t_)}};
-  }
+  nlohmann::json to_json() const override { return {{"R", to_json_rows(R_)}, {"t", to_json_array(t_)}}; }
 
   void from_json(const nlohmann::json& p) override {
     const Eigen::Matrix3d R = get_rows(p, "R", 3, 3);

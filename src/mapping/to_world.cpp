@@ -4,9 +4,8 @@
 
 namespace ips {
 
-WorldObservation to_world(const CameraObservation& obs, const Mapper& mapper, double known_height,
-                          int camera_index, std::int64_t t_mono_ns, std::int64_t t_real_ns,
-                          double heading_step) {
+WorldObservation to_world(const CameraObservation& obs, const Mapper& mapper, double known_height, int camera_index,
+                          std::int64_t t_mono_ns, std::int64_t t_real_ns, double heading_step) {
   WorldObservation w;
   w.id = obs.id;
   w.camera_index = camera_index;
@@ -14,8 +13,7 @@ WorldObservation to_world(const CameraObservation& obs, const Mapper& mapper, do
   w.t_mono_ns = t_mono_ns;
   w.t_real_ns = t_real_ns;
   w.p_world = mapper.predict(obs.p_cam, known_height);
-  const Eigen::Vector3d ahead =
-      obs.p_cam + heading_step * Eigen::Vector3d(std::cos(obs.yaw), std::sin(obs.yaw), 0.0);
+  const Eigen::Vector3d ahead = obs.p_cam + heading_step * Eigen::Vector3d(std::cos(obs.yaw), std::sin(obs.yaw), 0.0);
   const Eigen::Vector3d w_ahead = mapper.predict(ahead, known_height);
   w.yaw = std::atan2(w_ahead.y() - w.p_world.y(), w_ahead.x() - w.p_world.x());
   return w;

@@ -86,8 +86,9 @@ void MavlinkSink::publish(const Datagram& update) {
   const std::int64_t now = monotonic_ns();
   for (Vehicle& v : vehicles_) {
     if (settings_.heartbeat && (!v.heartbeat_sent || now - v.last_heartbeat_ns >= kHeartbeatIntervalNs)) {
-      send(v, mavlink::frame(mavlink::Heartbeat{}, v.sequence++, static_cast<std::uint8_t>(v.config.system_id),
-                             static_cast<std::uint8_t>(settings_.component_id)),
+      send(v,
+           mavlink::frame(mavlink::Heartbeat{}, v.sequence++, static_cast<std::uint8_t>(v.config.system_id),
+                          static_cast<std::uint8_t>(settings_.component_id)),
            0);
       v.last_heartbeat_ns = now;
       v.heartbeat_sent = true;
@@ -130,7 +131,8 @@ void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerReco
   if (v.last_seen_ns < 0) {
     v.tokens = 1.0;
   } else if (t > v.last_token_ns) {
-    v.tokens = std::min(kTokenCapacity, v.tokens + static_cast<double>(t - v.last_token_ns) * 1e-9 * settings_.rate_limit_hz);
+    v.tokens =
+        std::min(kTokenCapacity, v.tokens + static_cast<double>(t - v.last_token_ns) * 1e-9 * settings_.rate_limit_hz);
   }
   v.last_token_ns = std::max(v.last_token_ns, t);
   v.last_seen_ns = t;
@@ -183,8 +185,8 @@ void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerReco
 }
 
 void MavlinkSink::send(Vehicle& v, const std::vector<std::uint8_t>& frame, std::int64_t capture_realtime_ns) {
-  const ssize_t n = ::sendto(fd_, frame.data(), frame.size(), MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&v.to),
-                             sizeof v.to);
+  const ssize_t n =
+      ::sendto(fd_, frame.data(), frame.size(), MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&v.to), sizeof v.to);
   if (n == static_cast<ssize_t>(frame.size())) {
     ++stats_.datagrams;
     stats_.bytes += frame.size();
@@ -196,9 +198,8 @@ void MavlinkSink::send(Vehicle& v, const std::vector<std::uint8_t>& frame, std::
   ++errors_since_log_;
   const std::int64_t now = monotonic_ns();
   if (now - last_error_log_ns_ >= kSendErrorLogIntervalNs) {
-    spdlog::warn("output {}: send to system {} failed: {} ({} frame(s) lost since the last report)",
-                 stats_.description, v.config.system_id, n < 0 ? std::strerror(err) : "short write",
-                 errors_since_log_);
+    spdlog::warn("output {}: send to system {} failed: {} ({} frame(s) lost since the last report)", stats_.description,
+                 v.config.system_id, n < 0 ? std::strerror(err) : "short write", errors_since_log_);
     last_error_log_ns_ = now;
     errors_since_log_ = 0;
   }

@@ -32,10 +32,10 @@ class MavlinkSink final : public OutputSink {
   struct Vehicle {
     MavlinkVehicle config;
     sockaddr_in to{};
-    std::uint8_t sequence = 0;        ///< MAVLink packet sequence of this (system, component)
-    double tokens = 1.0;              ///< rate limit: token bucket, capacity 2
+    std::uint8_t sequence = 0;  ///< MAVLink packet sequence of this (system, component)
+    double tokens = 1.0;        ///< rate limit: token bucket, capacity 2
     std::int64_t last_token_ns = 0;
-    std::int64_t last_seen_ns = -1;   ///< marker time of the last sighting (monotonic)
+    std::int64_t last_seen_ns = -1;  ///< marker time of the last sighting (monotonic)
     std::uint8_t reset_counter = 0;
     std::int64_t last_heartbeat_ns = 0;
     bool heartbeat_sent = false;

@@ -1,8 +1,8 @@
 // The one place that maps an output type from the config to its implementation.
 #include "ips/output/output_sink.h"
 #include "mavlink_sink.h"
-#include "subscription_sink.h"
 #include "ros2_sink.h"
+#include "subscription_sink.h"
 #include "udp_sink.h"
 
 namespace ips {

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cinttypes>
-#include <cstring>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <cstring>
+#include <limits>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -58,9 +58,7 @@ using codec_detail::valid_name;
 
 namespace {
 
-std::size_t record_size(bool velocity) {
-  return velocity ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE;
-}
+std::size_t record_size(bool velocity) { return velocity ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE; }
 
 Datagram decode_binary(std::span<const std::uint8_t> bytes) {
   ips_wire_header h{};
@@ -74,8 +72,8 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
       malformed("body_record_size " + std::to_string(h.body_record_size) + " too small");
     case IPS_WIRE_BAD_RECORD_SIZE: malformed("record_size " + std::to_string(h.record_size) + " too small");
     case IPS_WIRE_BAD_LENGTH:
-      malformed("length " + std::to_string(bytes.size()) + " does not match " +
-                std::to_string(h.marker_count) + " records of " + std::to_string(h.record_size) + " bytes" +
+      malformed("length " + std::to_string(bytes.size()) + " does not match " + std::to_string(h.marker_count) +
+                " records of " + std::to_string(h.record_size) + " bytes" +
                 (h.version == IPS_WIRE_VERSION_2 ? " + the body section" : ""));
     case IPS_WIRE_BAD_PARTS: malformed("part " + std::to_string(h.part) + " of " + std::to_string(h.parts));
     default: malformed("unknown header error");
@@ -147,8 +145,8 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
 bool valid_body_name(const std::string& name) { return !name.empty() && valid_name(name); }
 
 std::string unsupported_version_message(unsigned version) {
-  return "ipsd stream version " + std::to_string(version) +
-         (version == IPS_WIRE_VERSION_2 ? " (rigid bodies)" : "") + ": this client reads versions 1 and 2; update it";
+  return "ipsd stream version " + std::to_string(version) + (version == IPS_WIRE_VERSION_2 ? " (rigid bodies)" : "") +
+         ": this client reads versions 1 and 2; update it";
 }
 
 std::vector<std::uint8_t> encode_binary(const Datagram& d) {
@@ -157,7 +155,8 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
   const bool v2 = d.version == IPS_WIRE_VERSION_2;
   if (!v2 && !d.bodies.empty()) throw std::invalid_argument("encode_binary: bodies need protocol version 2");
   for (const BodyRecord& b : d.bodies)
-    if (!valid_name(b.name)) throw std::invalid_argument("encode_binary: body name '" + b.name + "' does not fit the wire");
+    if (!valid_name(b.name))
+      throw std::invalid_argument("encode_binary: body name '" + b.name + "' does not fit the wire");
   const std::size_t rs = record_size(d.has_velocity);
   const std::size_t markers_end = IPS_WIRE_HEADER_SIZE + d.markers.size() * rs;
   std::vector<std::uint8_t> out(
@@ -253,9 +252,9 @@ std::vector<Datagram> split_update(const Datagram& update, WireFormat format) {
   widest.update = 0xffffffffu;
   widest.part = widest.parts = 255;
   const bool v2 = update.version == IPS_WIRE_VERSION_2;
-  const std::size_t header_bytes =
-      format == WireFormat::kBinary ? IPS_WIRE_HEADER_SIZE + (v2 ? IPS_WIRE_BODY_SECTION_SIZE : 0)
-                                    : encode_json(widest).size();
+  const std::size_t header_bytes = format == WireFormat::kBinary
+                                       ? IPS_WIRE_HEADER_SIZE + (v2 ? IPS_WIRE_BODY_SECTION_SIZE : 0)
+                                       : encode_json(widest).size();
   const std::size_t budget = IPS_WIRE_MAX_DATAGRAM;
 
   Datagram current = shell;

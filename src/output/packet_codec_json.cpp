@@ -35,14 +35,13 @@ void append_body_json(std::string& out, const BodyRecord& b) {
   out += "{\"name\":";
   out += nlohmann::json(b.name).dump();
   char buf[1024];
-  int n = std::snprintf(buf, sizeof buf,
-                        ",\"cameras\":%" PRIu32
-                        ",\"x\":%.5f,\"y\":%.5f,\"z\":%.5f,\"yaw\":%.5f,\"qw\":%.6f,\"qx\":%.6f,\"qy\":%.6f,"
-                        "\"qz\":%.6f,\"quality\":%.1f,\"spread\":%.5f,\"dt_us\":%" PRId32
-                        ",\"has_yaw\":%s,\"id_count\":%u,\"ids\":[",
-                        b.camera_mask, b.x, b.y, b.z, b.yaw, b.qw, b.qx, b.qy, b.qz, b.quality, b.spread, b.dt_us,
-                        b.has_yaw ? "true" : "false",
-                        static_cast<unsigned>(std::max<std::size_t>(b.id_count, b.ids.size())));
+  int n = std::snprintf(
+      buf, sizeof buf,
+      ",\"cameras\":%" PRIu32
+      ",\"x\":%.5f,\"y\":%.5f,\"z\":%.5f,\"yaw\":%.5f,\"qw\":%.6f,\"qx\":%.6f,\"qy\":%.6f,"
+      "\"qz\":%.6f,\"quality\":%.1f,\"spread\":%.5f,\"dt_us\":%" PRId32 ",\"has_yaw\":%s,\"id_count\":%u,\"ids\":[",
+      b.camera_mask, b.x, b.y, b.z, b.yaw, b.qw, b.qx, b.qy, b.qz, b.quality, b.spread, b.dt_us,
+      b.has_yaw ? "true" : "false", static_cast<unsigned>(std::max<std::size_t>(b.id_count, b.ids.size())));
   out.append(buf, static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < b.ids.size() && i < IPS_WIRE_BODY_MAX_IDS; ++i) {
     n = std::snprintf(buf, sizeof buf, i ? ",%" PRIu32 : "%" PRIu32, b.ids[i]);
@@ -143,7 +142,8 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
       if (name == bj.end() || !name->is_string()) malformed("field 'name' missing or not a string");
       b.name = name->get<std::string>();
       if (b.name.empty() || !valid_name(b.name))
-        malformed("body name is empty, longer than " + std::to_string(IPS_WIRE_BODY_NAME_SIZE - 1) + " bytes or has a NUL");
+        malformed("body name is empty, longer than " + std::to_string(IPS_WIRE_BODY_NAME_SIZE - 1) +
+                  " bytes or has a NUL");
       b.camera_mask = get_integer<std::uint32_t>(bj, "cameras");
       b.x = get_number(bj, "x");
       b.y = get_number(bj, "y");
@@ -188,14 +188,14 @@ std::string encode_json(const Datagram& d) {
   std::string out;
   out.reserve(256 + d.markers.size() * 160);
   char buf[384];
-  const int n = std::snprintf(
-      buf, sizeof buf,
-      "{\"type\":\"ips.positions\",\"version\":%u,\"seq\":%" PRIu32 ",\"update\":%" PRIu32
-      ",\"part\":%u,\"parts\":%u,\"t_capture_real_ns\":%" PRId64 ",\"t_capture_mono_ns\":%" PRId64
-      ",\"t_publish_real_ns\":%" PRId64 ",\"velocity\":%s,\"markers\":[",
-      static_cast<unsigned>(d.version), d.sequence, d.update, static_cast<unsigned>(d.part),
-      static_cast<unsigned>(d.parts), d.capture_realtime_ns, d.capture_monotonic_ns,
-      d.publish_realtime_ns, d.has_velocity ? "true" : "false");
+  const int n =
+      std::snprintf(buf, sizeof buf,
+                    "{\"type\":\"ips.positions\",\"version\":%u,\"seq\":%" PRIu32 ",\"update\":%" PRIu32
+                    ",\"part\":%u,\"parts\":%u,\"t_capture_real_ns\":%" PRId64 ",\"t_capture_mono_ns\":%" PRId64
+                    ",\"t_publish_real_ns\":%" PRId64 ",\"velocity\":%s,\"markers\":[",
+                    static_cast<unsigned>(d.version), d.sequence, d.update, static_cast<unsigned>(d.part),
+                    static_cast<unsigned>(d.parts), d.capture_realtime_ns, d.capture_monotonic_ns,
+                    d.publish_realtime_ns, d.has_velocity ? "true" : "false");
   out.append(buf, static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < d.markers.size(); ++i) {
     if (i) out.push_back(',');

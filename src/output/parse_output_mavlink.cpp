@@ -44,7 +44,8 @@ void parse_mavlink_output(MapReader& r, const YAML::Node& n, OutputConfig& o, co
     const std::string key = r.key("vehicles[" + std::to_string(i) + "]");
     m.vehicles.push_back(parse_vehicle(vehicles[i], key, file));
     if (!markers.insert(m.vehicles.back().marker).second)
-      r.fail(vehicles[i]["marker"], key + ".marker", "marker " + std::to_string(m.vehicles.back().marker) + " is already a vehicle");
+      r.fail(vehicles[i]["marker"], key + ".marker",
+             "marker " + std::to_string(m.vehicles.back().marker) + " is already a vehicle");
     if (!systems.insert(m.vehicles.back().system_id).second)
       r.fail(vehicles[i]["system_id"], key + ".system_id",
              "system id " + std::to_string(m.vehicles.back().system_id) + " is already a vehicle");
@@ -57,9 +58,12 @@ void parse_mavlink_output(MapReader& r, const YAML::Node& n, OutputConfig& o, co
     m.vision_position_estimate = m.odometry = false;
     for (const auto& item : messages) {
       const std::string name = item.IsScalar() ? item.Scalar() : "";
-      if (name == "vision_position_estimate") m.vision_position_estimate = true;
-      else if (name == "odometry") m.odometry = true;
-      else r.fail(item, r.key("messages"), "unknown message '" + name + "' (vision_position_estimate|odometry)");
+      if (name == "vision_position_estimate")
+        m.vision_position_estimate = true;
+      else if (name == "odometry")
+        m.odometry = true;
+      else
+        r.fail(item, r.key("messages"), "unknown message '" + name + "' (vision_position_estimate|odometry)");
     }
   }
   r.get("component_id", m.component_id);

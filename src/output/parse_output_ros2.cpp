@@ -34,8 +34,9 @@ void parse_ros2_output(MapReader& r, const YAML::Node& n, Ros2OutputSettings& o)
   if (o.prefix.empty()) r.fail(n["prefix"], r.key("prefix"), "empty (the topics are /<prefix>/<name>/pose)");
   if (!ros2::is_namespace(o.prefix))
     r.fail(n["prefix"], r.key("prefix"),
-           "'" + o.prefix + "' is not a ROS 2 namespace (tokens of letters, digits and _, not starting with a "
-           "digit, separated by single '/')");
+           "'" + o.prefix +
+               "' is not a ROS 2 namespace (tokens of letters, digits and _, not starting with a "
+               "digit, separated by single '/')");
 
   for (const char* k : {"frame_id", "child_frame_id"}) {
     std::string& v = std::string(k) == "frame_id" ? o.frame_id : o.child_frame_id;
@@ -47,7 +48,8 @@ void parse_ros2_output(MapReader& r, const YAML::Node& n, Ros2OutputSettings& o)
   r.get("pose", o.pose);
   r.get("odometry", o.odometry);
   r.get("tf", o.tf);
-  if (!o.pose && !o.odometry && !o.tf) r.fail(n, r.key("pose"), "pose, odometry and tf are all off: nothing to publish");
+  if (!o.pose && !o.odometry && !o.tf)
+    r.fail(n, r.key("pose"), "pose, odometry and tf are all off: nothing to publish");
 
   o.reliable = pick<bool>(r, "qos", {{"best_effort", false}, {"reliable", true}}, o.reliable, false);
   r.get("depth", o.depth);

@@ -22,7 +22,8 @@ void parse_subscriptions_output(MapReader& r, const YAML::Node& n, OutputConfig&
       const std::string key = r.key("allow[" + std::to_string(i) + "]");
       const std::string text = allow[i].IsScalar() ? allow[i].Scalar() : "";
       if (!subscription::parse_subnet(text))
-        r.fail(allow[i], key, "'" + text + "' is not an IPv4 subnet (ADDRESS/BITS with the host bits 0, or one ADDRESS)");
+        r.fail(allow[i], key,
+               "'" + text + "' is not an IPv4 subnet (ADDRESS/BITS with the host bits 0, or one ADDRESS)");
       s.allow.push_back(text);
     }
   }

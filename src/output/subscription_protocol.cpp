@@ -56,7 +56,8 @@ std::vector<std::uint8_t> encode_request(const Request& r, const std::string& ps
   return b;
 }
 
-std::optional<Request> decode_request(std::span<const std::uint8_t> bytes, const std::string& psk, RequestError& error) {
+std::optional<Request> decode_request(std::span<const std::uint8_t> bytes, const std::string& psk,
+                                      RequestError& error) {
   error = RequestError::kMalformed;
   if (bytes.size() < IPS_SUB_REQUEST_HEADER || std::memcmp(bytes.data(), IPS_SUB_MAGIC_REQUEST, 4) != 0 ||
       bytes[4] != IPS_SUB_VERSION)

@@ -23,7 +23,7 @@ namespace ips {
 namespace {
 
 constexpr std::int64_t kSecretPeriodNs = 30'000'000'000;  // cookies live 30-60 s
-constexpr std::size_t kMaxLogged = 4096;  // distinct (reason, source) pairs logged, then quiet
+constexpr std::size_t kMaxLogged = 4096;                  // distinct (reason, source) pairs logged, then quiet
 const char* const kRefusalNames[] = {"refused_malformed", "refused_subnet", "refused_key", "refused_cookie",
                                      "refused_full"};
 
@@ -44,7 +44,9 @@ SubscriptionSink::SubscriptionSink(const OutputConfig& c, const std::string& whe
   stats_.description = c.describe();
   for (std::size_t i = 0; i < c.subscriptions.allow.size(); ++i) {
     const auto s = subscription::parse_subnet(c.subscriptions.allow[i]);
-    if (!s) throw InputError(where + ".allow[" + std::to_string(i) + "]: '" + c.subscriptions.allow[i] + "' is not an IPv4 subnet");
+    if (!s)
+      throw InputError(where + ".allow[" + std::to_string(i) + "]: '" + c.subscriptions.allow[i] +
+                       "' is not an IPv4 subnet");
     allow_.push_back(*s);
   }
   sockaddr_in addr{};
@@ -146,7 +148,8 @@ void SubscriptionSink::handle(std::span<const std::uint8_t> bytes, const sockadd
                   error == subscription::RequestError::kBadKey ? "wrong or missing pre-shared key HMAC"
                                                                : "not a subscription request");
   }
-  const bool zero_cookie = std::all_of(request->cookie.begin(), request->cookie.end(), [](std::uint8_t b) { return b == 0; });
+  const bool zero_cookie =
+      std::all_of(request->cookie.begin(), request->cookie.end(), [](std::uint8_t b) { return b == 0; });
   if (zero_cookie || !cookie_valid(request->cookie, from)) {
     count_in();
     if (!zero_cookie) refuse(kCookie, from, "stale or forged cookie (challenged again)");
@@ -189,16 +192,19 @@ void SubscriptionSink::handle(std::span<const std::uint8_t> bytes, const sockadd
     }
   }
   if (full) refuse(kFull, from, "max_subscribers reached");
-  if (added) spdlog::info("output {}: {} subscribed ({}, {}, lease {} s)", stats_.description, endpoint(from),
-                          to_string(request->format), request->all ? "all markers" : std::to_string(request->ids.size()) + " id(s)",
-                          r.lease_s);
-  if (request->op == subscription::Op::kUnsubscribe) spdlog::info("output {}: {} unsubscribed", stats_.description, endpoint(from));
+  if (added)
+    spdlog::info("output {}: {} subscribed ({}, {}, lease {} s)", stats_.description, endpoint(from),
+                 to_string(request->format),
+                 request->all ? "all markers" : std::to_string(request->ids.size()) + " id(s)", r.lease_s);
+  if (request->op == subscription::Op::kUnsubscribe)
+    spdlog::info("output {}: {} unsubscribed", stats_.description, endpoint(from));
   reply(r, from, true);
 }
 
 void SubscriptionSink::reply(const subscription::Reply& r, const sockaddr_in& to, bool verified) {
   const std::vector<std::uint8_t> bytes = subscription::encode_reply(r);
-  const ssize_t n = ::sendto(fd_, bytes.data(), bytes.size(), MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&to), sizeof to);
+  const ssize_t n =
+      ::sendto(fd_, bytes.data(), bytes.size(), MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&to), sizeof to);
   std::lock_guard lock(mutex_);
   if (n != static_cast<ssize_t>(bytes.size())) {
     ++stats_.send_errors;
@@ -274,7 +280,8 @@ OutputStats SubscriptionSink::stats() const {
   s.counters.emplace_back("accepted", accepted_);
   s.counters.emplace_back("expired", expired_);
   s.counters.emplace_back("challenges", challenges_);
-  for (int i = 0; i < kRefusalCount; ++i) s.counters.emplace_back(kRefusalNames[i], refused_[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < kRefusalCount; ++i)
+    s.counters.emplace_back(kRefusalNames[i], refused_[static_cast<std::size_t>(i)]);
   s.counters.emplace_back("unverified_bytes_in", unverified_bytes_in_);
   s.counters.emplace_back("unverified_bytes_out", unverified_bytes_out_);
   return s;

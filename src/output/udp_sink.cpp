@@ -75,8 +75,8 @@ void UdpSink::publish(const Datagram& update) {
     d.sequence = sequence_++;
     d.publish_realtime_ns = realtime_ns();
     const std::vector<std::uint8_t> bytes = encode(d, config_.format);
-    const ssize_t n = ::sendto(fd_, bytes.data(), bytes.size(), MSG_DONTWAIT,
-                               reinterpret_cast<const sockaddr*>(&to_), sizeof to_);
+    const ssize_t n =
+        ::sendto(fd_, bytes.data(), bytes.size(), MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&to_), sizeof to_);
     if (n == static_cast<ssize_t>(bytes.size())) {
       ++stats_.datagrams;
       stats_.bytes += bytes.size();

@@ -22,8 +22,7 @@ constexpr double kPi = 3.14159265358979323846;
 
 }  // namespace
 
-BoardRenderer::BoardRenderer(const CameraRenderer& camera, const calib::Board& board,
-                             double paper_margin)
+BoardRenderer::BoardRenderer(const CameraRenderer& camera, const calib::Board& board, double paper_margin)
     : camera_(camera), board_(board), margin_(paper_margin) {}
 
 BoardTruth BoardRenderer::truth(const BoardPose& pose) const {
@@ -32,8 +31,7 @@ BoardTruth BoardRenderer::truth(const BoardPose& pose) const {
   BoardTruth t;
   for (const auto& c : board_.corners()) {
     const Eigen::Vector3d p = pose.R * Eigen::Vector3d(c.x, c.y, c.z) + pose.t;
-    const bool in_front =
-        p.z() > 1e-6 && std::atan2(std::hypot(p.x(), p.y()), p.z()) < model.max_theta() - 1e-6;
+    const bool in_front = p.z() > 1e-6 && std::atan2(std::hypot(p.x(), p.y()), p.z()) < model.max_theta() - 1e-6;
     const Point2 px = in_front ? model.project({p.x() / p.z(), p.y() / p.z()}) : Point2{-1e9, -1e9};
     const bool vis = in_front && px.x >= 4 && px.y >= 4 && px.x <= w - 5 && px.y <= h - 5;
     t.corners_px.push_back(px);
@@ -180,8 +178,7 @@ void BoardRenderer::render(const BoardPose& pose, const BoardLook& look, cv::Mat
   camera_.add_noise(gray, noise_index);
 }
 
-std::vector<BoardView> generate_board_views(const BoardRenderer& renderer,
-                                            const BoardViewOptions& opt) {
+std::vector<BoardView> generate_board_views(const BoardRenderer& renderer, const BoardViewOptions& opt) {
   const CameraModel& model = renderer.camera().camera().model;
   const calib::BoardSpec& spec = renderer.board().spec();
   const int W = model.size().width, H = model.size().height;

@@ -16,8 +16,8 @@
 
 #include "plane_sampling.h"
 
-#include "ips/detect/detector.h"
 #include "ips/core/error.h"
+#include "ips/detect/detector.h"
 #include "ips/geometry/marker_geometry.h"
 
 namespace ips::sim {
@@ -66,9 +66,8 @@ class FloorTexture {
       const int x0 = static_cast<int>(gx), y0 = static_cast<int>(gy);
       const double fx = gx - x0, fy = gy - y0;
       const cv::Mat& g = grids_[o];
-      const double val =
-          (1 - fy) * ((1 - fx) * g.at<float>(y0, x0) + fx * g.at<float>(y0, x0 + 1)) +
-          fy * ((1 - fx) * g.at<float>(y0 + 1, x0) + fx * g.at<float>(y0 + 1, x0 + 1));
+      const double val = (1 - fy) * ((1 - fx) * g.at<float>(y0, x0) + fx * g.at<float>(y0, x0 + 1)) +
+                         fy * ((1 - fx) * g.at<float>(y0 + 1, x0) + fx * g.at<float>(y0 + 1, x0 + 1));
       v += (o == 0 ? 0.8 : 0.4) * val;
     }
     return f_.grey + f_.texture_contrast * v;
@@ -85,10 +84,9 @@ class FloorTexture {
 // renderer of the same camera (several sources of one scene, repeated tests).
 std::shared_ptr<const cv::Mat> ray_map(const CameraModel& model) {
   char key[512];
-  std::snprintf(key, sizeof key, "%d %dx%d K %.17g %.17g %.17g %.17g %.17g D",
-                static_cast<int>(model.kind()), model.size().width, model.size().height,
-                model.K()(0, 0), model.K()(0, 1), model.K()(0, 2), model.K()(1, 1),
-                model.K()(1, 2));
+  std::snprintf(key, sizeof key, "%d %dx%d K %.17g %.17g %.17g %.17g %.17g D", static_cast<int>(model.kind()),
+                model.size().width, model.size().height, model.K()(0, 0), model.K()(0, 1), model.K()(0, 2),
+                model.K()(1, 1), model.K()(1, 2));
   std::string k = key;
   for (double d : model.D()) {
     std::snprintf(key, sizeof key, " %.17g", d);
@@ -104,8 +102,8 @@ std::shared_ptr<const cv::Mat> ray_map(const CameraModel& model) {
       auto* row = uv->ptr<cv::Vec2f>(y);
       for (int x = 0; x < model.size().width; ++x) {
         const Point2 n = model.undistort({static_cast<double>(x), static_cast<double>(y)});
-        row[x] = std::isnan(n.x) ? cv::Vec2f(kNaNf, kNaNf)
-                                 : cv::Vec2f(static_cast<float>(n.x), static_cast<float>(n.y));
+        row[x] =
+            std::isnan(n.x) ? cv::Vec2f(kNaNf, kNaNf) : cv::Vec2f(static_cast<float>(n.x), static_cast<float>(n.y));
       }
     }
   });
@@ -113,20 +111,16 @@ std::shared_ptr<const cv::Mat> ray_map(const CameraModel& model) {
   return uv;
 }
 
-std::shared_ptr<const std::vector<std::int8_t>> noise_pool(double sigma, unsigned seed,
-                                                           std::size_t size) {
+std::shared_ptr<const std::vector<std::int8_t>> noise_pool(double sigma, unsigned seed, std::size_t size) {
   static std::mutex mutex;
-  static std::map<std::tuple<double, unsigned, std::size_t>,
-                  std::shared_ptr<const std::vector<std::int8_t>>>
-      cache;
+  static std::map<std::tuple<double, unsigned, std::size_t>, std::shared_ptr<const std::vector<std::int8_t>>> cache;
   const std::lock_guard lock(mutex);
   const auto key = std::make_tuple(sigma, seed, size);
   if (auto it = cache.find(key); it != cache.end()) return it->second;
   std::mt19937 rng(seed);
   std::normal_distribution<float> normal(0.0f, static_cast<float>(sigma));
   auto pool = std::make_shared<std::vector<std::int8_t>>(size);
-  for (auto& v : *pool)
-    v = static_cast<std::int8_t>(std::clamp(std::lround(normal(rng)), -127L, 127L));
+  for (auto& v : *pool) v = static_cast<std::int8_t>(std::clamp(std::lround(normal(rng)), -127L, 127L));
   cache.emplace(key, pool);
   return pool;
 }
@@ -202,17 +196,14 @@ MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose
   if (!pose.present) return t;  // picked up: not visible anywhere
   bool visible = faces_camera(pose, cam);
   for (std::size_t i = 0; i < 4; ++i) {
-    const Eigen::Vector3d pc =
-        cam.world_to_camera(marker_point(pose, marker.length, kCorners[i][0], kCorners[i][1]));
+    const Eigen::Vector3d pc = cam.world_to_camera(marker_point(pose, marker.length, kCorners[i][0], kCorners[i][1]));
     const Point2 n{pc.x() / pc.z(), pc.y() / pc.z()};
     t.formula.corners_norm[i] = n;
-    const bool in_front =
-        pc.z() > 0 && std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) < cam.model.max_theta();
+    const bool in_front = pc.z() > 0 && std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) < cam.model.max_theta();
     const Point2 px = in_front ? cam.model.project(n) : Point2{-1e9, -1e9};
     t.formula.corners_px[i] = px;
     t.corners_px[i] = px;
-    visible =
-        visible && in_front && px.x >= 3 && px.y >= 3 && px.x <= width_ - 4 && px.y <= height_ - 4;
+    visible = visible && in_front && px.x >= 3 && px.y >= 3 && px.x <= width_ - 4 && px.y <= height_ - 4;
   }
   t.visible = visible;
   if (visible) t.formula = locate_from_normalised(t.formula);
@@ -256,8 +247,7 @@ void CameraRenderer::render_markers(const std::vector<PlacedMarker>& markers, cv
 }
 
 void CameraRenderer::add_noise(cv::Mat& gray, std::uint64_t noise_index) const {
-  if (gray.type() != CV_8UC1 || gray.rows != height_ || gray.cols != width_ ||
-      !gray.isContinuous()) {
+  if (gray.type() != CV_8UC1 || gray.rows != height_ || gray.cols != width_ || !gray.isContinuous()) {
     throw std::invalid_argument("CameraRenderer::add_noise: not a frame of this camera");
   }
   if (scene_.render.noise_sigma > 0) {
@@ -291,8 +281,7 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
         const double a = e == 0 ? s : (e == 1 ? half_plate : (e == 2 ? -s : -half_plate));
         const double b = e == 0 ? half_plate : (e == 1 ? -s : (e == 2 ? -half_plate : s));
         const Eigen::Vector3d pc = cam.world_to_camera(marker_point(pose, mk.length, a, b));
-        if (!(pc.z() > 1e-6) ||
-            std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) >= cam.model.max_theta()) {
+        if (!(pc.z() > 1e-6) || std::atan2(std::hypot(pc.x(), pc.y()), pc.z()) >= cam.model.max_theta()) {
           continue;  // this part of the plate is outside the lens' field
         }
         const Point2 px = cam.model.project({pc.x() / pc.z(), pc.y() / pc.z()});
@@ -354,13 +343,10 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
     }
     auto value_of = [&](int reg, float bg_value, float gain) -> float {
       switch (reg) {
-        case kBlack:
-          return black * gain;
+        case kBlack: return black * gain;
         case kWhite:
-        case kMargin:
-          return white * gain;
-        default:
-          return bg_value;  // off the plate (or no ray): what was there
+        case kMargin: return white * gain;
+        default: return bg_value;  // off the plate (or no ray): what was there
       }
     };
     for (int y = 0; y < bh; ++y) {
@@ -403,10 +389,8 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
 }
 
 std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool colour) {
-  if (quality < 1 || quality > 100)
-    throw InputError("JPEG quality must be 1..100, got " + std::to_string(quality));
-  if (gray.type() != CV_8UC1 || gray.empty())
-    throw std::invalid_argument("encode_jpeg: expected CV_8UC1");
+  if (quality < 1 || quality > 100) throw InputError("JPEG quality must be 1..100, got " + std::to_string(quality));
+  if (gray.type() != CV_8UC1 || gray.empty()) throw std::invalid_argument("encode_jpeg: expected CV_8UC1");
   // One compressor per thread: tjInitCompress allocates, frames come at video rate.
   struct Handle {
     tjhandle h = tjInitCompress();
@@ -424,8 +408,8 @@ std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool col
   }
   unsigned char* buf = nullptr;
   unsigned long size = 0;
-  if (tjCompress2(handle.h, src.data, src.cols, static_cast<int>(src.step), src.rows, format, &buf,
-                  &size, subsampling, quality, TJFLAG_FASTDCT) != 0) {
+  if (tjCompress2(handle.h, src.data, src.cols, static_cast<int>(src.step), src.rows, format, &buf, &size, subsampling,
+                  quality, TJFLAG_FASTDCT) != 0) {
     const std::string err = tjGetErrorStr2(handle.h);
     tjFree(buf);
     throw std::runtime_error("libjpeg-turbo: " + err);

@@ -11,8 +11,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/aruco.hpp>
 
-#include "ips/detect/detector.h"
 #include "ips/core/error.h"
+#include "ips/detect/detector.h"
 
 namespace ips::sim {
 namespace {
@@ -24,11 +24,9 @@ class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& key,
-                         const std::string& what) const {
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& key, const std::string& what) const {
     const int line = node.IsDefined() ? node.Mark().line + 1 : 0;
-    throw InputError(file_ + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + key +
-                     ": " + what);
+    throw InputError(file_ + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + key + ": " + what);
   }
 
   double number(const YAML::Node& parent, const std::string& path, const char* key, double def,
@@ -66,8 +64,8 @@ class Reader {
     return v;
   }
 
-  std::vector<double> numbers(const YAML::Node& parent, const std::string& path, const char* key,
-                              std::size_t min_n, std::size_t max_n) const {
+  std::vector<double> numbers(const YAML::Node& parent, const std::string& path, const char* key, std::size_t min_n,
+                              std::size_t max_n) const {
     const YAML::Node n = parent[key];
     if (!n) fail(parent, path + key, "missing");
     if (!n.IsSequence() || n.size() < min_n || n.size() > max_n) {
@@ -80,16 +78,14 @@ class Reader {
     return out;
   }
 
-  std::string text(const YAML::Node& parent, const std::string& path, const char* key,
-                   const std::string& def) const {
+  std::string text(const YAML::Node& parent, const std::string& path, const char* key, const std::string& def) const {
     const YAML::Node n = parent[key];
     if (!n) return def;
     if (!n.IsScalar()) fail(n, path + key, "expected a string");
     return n.as<std::string>();
   }
 
-  void only_keys(const YAML::Node& map, const std::string& path,
-                 std::initializer_list<const char*> keys) const {
+  void only_keys(const YAML::Node& map, const std::string& path, std::initializer_list<const char*> keys) const {
     if (!map.IsMap()) fail(map, path.empty() ? "scene" : path, "expected a mapping");
     for (const auto& kv : map) {
       // A list or mapping as a key has no string form (found by fuzz_scene).
@@ -114,12 +110,10 @@ Eigen::Vector2d vec2(const std::vector<double>& v) { return {v[0], v[1]}; }
 // A placements trajectory: poses [x, y], [x, y, height] or [x, y, height, yaw_deg] (the
 // marker's own height / yaw_deg where left out) and the control file (relative to the scene).
 void read_placements(const Reader& r, const YAML::Node& n, const std::string& path,
-                     const std::filesystem::path& scene_dir, const MarkerPose& start,
-                     Trajectory& t) {
+                     const std::filesystem::path& scene_dir, const MarkerPose& start, Trajectory& t) {
   const std::string control = r.text(n, path, "control", "");
   if (control.empty()) r.fail(n, path + "control", "missing (the file that holds the index)");
-  t.control = std::filesystem::path(control).is_absolute() ? std::filesystem::path(control)
-                                                           : scene_dir / control;
+  t.control = std::filesystem::path(control).is_absolute() ? std::filesystem::path(control) : scene_dir / control;
   const YAML::Node pts = n["points"];
   if (!pts || !pts.IsSequence() || pts.size() < 1) {
     r.fail(pts ? pts : n, path + "points", "expected a list of [x, y(, height(, yaw_deg))] poses");
@@ -142,8 +136,8 @@ void read_placements(const Reader& r, const YAML::Node& n, const std::string& pa
 Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::string& path,
                            const std::filesystem::path& scene_dir, const MarkerPose& start) {
   r.only_keys(n, path,
-              {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading",
-               "control", "pause", "start_deg"});
+              {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading", "control", "pause",
+               "start_deg"});
   Trajectory t;
   const std::string type = r.text(n, path, "type", "");
   if (type == "placements") {
@@ -154,8 +148,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
   t.speed = r.number(n, path, "speed", 0.0, true);
   if (t.speed < 0) r.fail(n["speed"], path + "speed", "must be >= 0");
   const std::string heading = r.text(n, path, "heading", "path");
-  if (heading != "path" && heading != "fixed")
-    r.fail(n["heading"], path + "heading", "expected path or fixed");
+  if (heading != "path" && heading != "fixed") r.fail(n["heading"], path + "heading", "expected path or fixed");
   t.heading_follows_path = heading == "path";
   if (type == "circle") {
     t.kind = Trajectory::Kind::kCircle;
@@ -185,8 +178,7 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
     for (std::size_t i = 0; i < pts.size(); ++i) {
       YAML::Node holder;
       holder["p"] = pts[i];
-      t.points.push_back(
-          vec2(r.numbers(holder, path + "points[" + std::to_string(i) + "]", "p", 2, 2)));
+      t.points.push_back(vec2(r.numbers(holder, path + "points[" + std::to_string(i) + "]", "p", 2, 2)));
     }
   } else {
     r.fail(n["type"] ? n["type"] : n, path + "type",
@@ -217,7 +209,8 @@ void read_bodies(const Reader& r, const YAML::Node& bs, const std::filesystem::p
     body.start.yaw = r.number(b, q, "yaw_deg", 0.0) * kDeg;
     body.roll = r.number(b, q, "roll_deg", 0.0) * kDeg;
     body.pitch = r.number(b, q, "pitch_deg", 0.0) * kDeg;
-    if (b["trajectory"]) body.trajectory = read_trajectory(r, b["trajectory"], q + "trajectory.", scene_dir, body.start);
+    if (b["trajectory"])
+      body.trajectory = read_trajectory(r, b["trajectory"], q + "trajectory.", scene_dir, body.start);
     if (body.trajectory.kind == Trajectory::Kind::kPlacements)
       r.fail(b["trajectory"], q + "trajectory.type", "placements are for single markers, not bodies");
     for (const BodyMarker& bm : body.def.markers) {
@@ -247,8 +240,7 @@ void read_bodies(const Reader& r, const YAML::Node& bs, const std::filesystem::p
 Eigen::Matrix3d Scene::orientation(double roll, double pitch, double yaw) {
   Eigen::Matrix3d down;
   down << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // columns: camera x = world x, y = -world y, z = down
-  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
           Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
              .toRotationMatrix() *
          down;
@@ -283,32 +275,27 @@ Scene Scene::load(const std::filesystem::path& path) {
       scene.floor.size_y = s[1];
     }
     scene.floor.grey = r.number(f, "floor.", "grey", scene.floor.grey);
-    scene.floor.texture_contrast =
-        r.number(f, "floor.", "texture_contrast", scene.floor.texture_contrast);
+    scene.floor.texture_contrast = r.number(f, "floor.", "texture_contrast", scene.floor.texture_contrast);
     scene.floor.texture_scale = r.number(f, "floor.", "texture_scale", scene.floor.texture_scale);
-    if (!(scene.floor.texture_scale > 0))
-      r.fail(f["texture_scale"], "floor.texture_scale", "must be > 0");
+    if (!(scene.floor.texture_scale > 0)) r.fail(f["texture_scale"], "floor.texture_scale", "must be > 0");
     scene.floor.seed = static_cast<unsigned>(r.integer(f, "floor.", "seed", scene.floor.seed, 0, 4294967295.0));
   }
 
   if (const YAML::Node g = root["render"]) {
     auto& s = scene.render;
     r.only_keys(g, "render.",
-                {"supersample", "noise_sigma", "jpeg_quality", "vignetting", "gradient", "exposure",
-                 "blur_samples", "white", "black", "seed"});
+                {"supersample", "noise_sigma", "jpeg_quality", "vignetting", "gradient", "exposure", "blur_samples",
+                 "white", "black", "seed"});
     s.supersample = static_cast<int>(r.integer(g, "render.", "supersample", s.supersample, 1, 8));
     s.noise_sigma = r.number(g, "render.", "noise_sigma", s.noise_sigma);
-    if (s.noise_sigma < 0 || s.noise_sigma > 50)
-      r.fail(g["noise_sigma"], "render.noise_sigma", "must be 0..50");
+    if (s.noise_sigma < 0 || s.noise_sigma > 50) r.fail(g["noise_sigma"], "render.noise_sigma", "must be 0..50");
     s.jpeg_quality = static_cast<int>(r.integer(g, "render.", "jpeg_quality", s.jpeg_quality, 0, 100));
     s.vignetting = r.number(g, "render.", "vignetting", s.vignetting);
-    if (s.vignetting < 0 || s.vignetting >= 1)
-      r.fail(g["vignetting"], "render.vignetting", "must be in [0, 1)");
+    if (s.vignetting < 0 || s.vignetting >= 1) r.fail(g["vignetting"], "render.vignetting", "must be in [0, 1)");
     s.gradient = r.number(g, "render.", "gradient", s.gradient);
     if (std::abs(s.gradient) >= 1) r.fail(g["gradient"], "render.gradient", "must be in (-1, 1)");
     s.exposure = r.number(g, "render.", "exposure", s.exposure);
-    if (s.exposure < 0 || s.exposure > 1)
-      r.fail(g["exposure"], "render.exposure", "must be 0..1 s");
+    if (s.exposure < 0 || s.exposure > 1) r.fail(g["exposure"], "render.exposure", "must be 0..1 s");
     s.blur_samples = static_cast<int>(r.integer(g, "render.", "blur_samples", s.blur_samples, 1, 64));
     s.white = r.number(g, "render.", "white", s.white);
     s.black = r.number(g, "render.", "black", s.black);
@@ -330,13 +317,12 @@ Scene Scene::load(const std::filesystem::path& path) {
     cam.name = r.text(c, p, "name", "");
     if (cam.name.empty()) r.fail(c, p + "name", "missing");
     for (const auto& other : scene.cameras) {
-      if (other.name == cam.name)
-        r.fail(c["name"], p + "name", "duplicate camera name '" + cam.name + "'");
+      if (other.name == cam.name) r.fail(c["name"], p + "name", "duplicate camera name '" + cam.name + "'");
     }
     const std::string intr = r.text(c, p, "intrinsics", "");
     if (intr.empty()) r.fail(c, p + "intrinsics", "missing");
-    cam.intrinsics_path = std::filesystem::path(intr).is_absolute() ? std::filesystem::path(intr)
-                                                                    : path.parent_path() / intr;
+    cam.intrinsics_path =
+        std::filesystem::path(intr).is_absolute() ? std::filesystem::path(intr) : path.parent_path() / intr;
     try {
       cam.model = CameraModel::load(cam.intrinsics_path);
     } catch (const InputError& e) {
@@ -344,16 +330,14 @@ Scene Scene::load(const std::filesystem::path& path) {
     }
     const auto pos = r.numbers(c, p, "position", 2, 3);
     cam.position = {pos[0], pos[1], pos.size() > 2 ? pos[2] : 2.1};
-    if (!(cam.position.z() > 0.3))
-      r.fail(c["position"], p + "position", "camera must be > 0.3 m above the floor");
+    if (!(cam.position.z() > 0.3)) r.fail(c["position"], p + "position", "camera must be > 0.3 m above the floor");
     std::vector<double> rot{0, 0, 0};
     if (c["rotation_deg"]) rot = r.numbers(c, p, "rotation_deg", 3, 3);
     cam.R_wc = orientation(rot[0] * kDeg, rot[1] * kDeg, rot[2] * kDeg);
     scene.cameras.push_back(std::move(cam));
   }
 
-  const int dictionary_size =
-      cv::aruco::getPredefinedDictionary(dictionary_id(scene.dictionary))->bytesList.rows;
+  const int dictionary_size = cv::aruco::getPredefinedDictionary(dictionary_id(scene.dictionary))->bytesList.rows;
   if (const YAML::Node ms = root["markers"]) {
     if (!ms.IsSequence()) r.fail(ms, "markers", "expected a list");
     for (std::size_t i = 0; i < ms.size(); ++i) {
@@ -366,16 +350,13 @@ Scene Scene::load(const std::filesystem::path& path) {
         r.fail(m["id"], p + "id", "must be a non-negative integer");
       mk.id = static_cast<int>(id);
       if (mk.id >= dictionary_size) {
-        r.fail(m["id"], p + "id",
-               "not in " + scene.dictionary + " (0.." + std::to_string(dictionary_size - 1) + ")");
+        r.fail(m["id"], p + "id", "not in " + scene.dictionary + " (0.." + std::to_string(dictionary_size - 1) + ")");
       }
       for (const auto& other : scene.markers) {
-        if (other.id == mk.id)
-          r.fail(m["id"], p + "id", "duplicate marker id " + std::to_string(mk.id));
+        if (other.id == mk.id) r.fail(m["id"], p + "id", "duplicate marker id " + std::to_string(mk.id));
       }
       mk.length = r.number(m, p, "length", mk.length);
-      if (!(mk.length > 0.005 && mk.length < 5))
-        r.fail(m["length"], p + "length", "must be 0.005..5 m");
+      if (!(mk.length > 0.005 && mk.length < 5)) r.fail(m["length"], p + "length", "must be 0.005..5 m");
       mk.margin = r.number(m, p, "margin", mk.margin);
       mk.start.x = r.number(m, p, "x", 0, !m["trajectory"]);
       mk.start.y = r.number(m, p, "y", 0, !m["trajectory"]);
@@ -383,8 +364,7 @@ Scene Scene::load(const std::filesystem::path& path) {
       if (mk.start.z < 0) r.fail(m["height"], p + "height", "must be >= 0");
       mk.start.yaw = r.number(m, p, "yaw_deg", 0.0) * kDeg;
       if (m["trajectory"]) {
-        mk.trajectory =
-            read_trajectory(r, m["trajectory"], p + "trajectory.", path.parent_path(), mk.start);
+        mk.trajectory = read_trajectory(r, m["trajectory"], p + "trajectory.", path.parent_path(), mk.start);
       }
       scene.markers.push_back(mk);
     }

@@ -14,8 +14,7 @@ namespace ips::sim {
 namespace {
 
 // Position and direction of travel at arc length s along a closed polyline.
-void along_polyline(const std::vector<Eigen::Vector2d>& pts, double s, Eigen::Vector2d& pos,
-                    Eigen::Vector2d& dir) {
+void along_polyline(const std::vector<Eigen::Vector2d>& pts, double s, Eigen::Vector2d& pos, Eigen::Vector2d& dir) {
   double total = 0.0;
   for (std::size_t i = 0; i < pts.size(); ++i) total += (pts[(i + 1) % pts.size()] - pts[i]).norm();
   s = std::fmod(s, total);
@@ -63,7 +62,6 @@ long read_index(const std::filesystem::path& control) {
   return index;
 }
 
-
 // Pose at time t of something that starts at `start` and follows `tr` (markers and bodies).
 MarkerPose pose_on_trajectory(const MarkerPose& start, const Trajectory& tr, double t) {
   MarkerPose pose = start;
@@ -71,8 +69,7 @@ MarkerPose pose_on_trajectory(const MarkerPose& start, const Trajectory& tr, dou
   Eigen::Vector2d dir(1, 0);
   const double s = tr.speed * t;
   switch (tr.kind) {
-    case Trajectory::Kind::kStatic:
-      return pose;
+    case Trajectory::Kind::kStatic: return pose;
     case Trajectory::Kind::kCircle: {
       const double sign = tr.clockwise ? -1.0 : 1.0;
       const double a = tr.start_angle + sign * s / tr.radius;

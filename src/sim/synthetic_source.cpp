@@ -17,8 +17,7 @@ SyntheticSource::SyntheticSource(std::shared_ptr<const Scene> scene, SyntheticSo
       options_(std::move(options)),
       renderer_(*scene_, scene_->camera_index(options_.camera)) {
   if (!(options_.fps > 0 && options_.fps <= 1000)) {
-    throw InputError("synthetic source: fps must be in (0, 1000], got " +
-                     std::to_string(options_.fps));
+    throw InputError("synthetic source: fps must be in (0, 1000], got " + std::to_string(options_.fps));
   }
 }
 
@@ -80,7 +79,8 @@ void SyntheticSource::render_loop() {
     // Behind schedule: skip to the newest frame already due for delivery (a camera drops the rest).
     const std::int64_t now = monotonic_ns();
     if (now > frame_time_ns(k) + delay_ns_) {
-      const double due = std::floor(static_cast<double>(now - delay_ns_ - epoch_mono_ns_ - options_.phase_ns) * options_.fps * 1e-9);
+      const double due =
+          std::floor(static_cast<double>(now - delay_ns_ - epoch_mono_ns_ - options_.phase_ns) * options_.fps * 1e-9);
       if (due > static_cast<double>(k)) k = static_cast<std::uint64_t>(due);
     }
     Rendered r;
@@ -169,8 +169,7 @@ FrameSource::ReadStatus SyntheticSource::read(Frame& out, std::chrono::milliseco
     }
     const std::int64_t wait = frame_time_ns(next_) - now;
     if (wait > 0) {
-      const std::int64_t limit =
-          std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
+      const std::int64_t limit = std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
       if (wait > limit) {
         std::this_thread::sleep_for(std::chrono::nanoseconds(limit));
         return ReadStatus::kTimeout;

@@ -189,8 +189,7 @@ SurveyResult run_survey(const SurveyInput& input) {
   options.num_threads = 1;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
-  if (!summary.IsSolutionUsable())
-    throw InputError("the bundle adjustment failed: " + summary.message);
+  if (!summary.IsSolutionUsable()) throw InputError("the bundle adjustment failed: " + summary.message);
   out.iterations = static_cast<int>(summary.iterations.size());
   out.final_rms_px = rms_by_camera(rms, corners);
   out.instants = static_cast<int>(targets.size());

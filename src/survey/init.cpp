@@ -16,8 +16,8 @@ namespace ips::survey::detail {
 namespace {
 
 /// x_dst = R x_src + t, least squares (Kabsch/Umeyama without scale).
-void rigid_fit(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst,
-               Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+void rigid_fit(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst, Eigen::Matrix3d& R,
+               Eigen::Vector3d& t) {
   Eigen::Matrix3Xd a(3, src.size()), b(3, dst.size());
   for (std::size_t i = 0; i < src.size(); ++i) {
     a.col(static_cast<Eigen::Index>(i)) = src[i];
@@ -44,8 +44,7 @@ double second_spread(const std::vector<Eigen::Vector3d>& p) {
 
 std::array<Eigen::Vector3d, 4> marker_corners(double edge) {
   const double h = edge / 2;
-  return {Eigen::Vector3d(-h, h, 0), Eigen::Vector3d(h, h, 0), Eigen::Vector3d(h, -h, 0),
-          Eigen::Vector3d(-h, -h, 0)};
+  return {Eigen::Vector3d(-h, h, 0), Eigen::Vector3d(h, h, 0), Eigen::Vector3d(h, -h, 0), Eigen::Vector3d(-h, -h, 0)};
 }
 
 std::vector<Target> make_targets(const SurveyInput& input) {
@@ -74,8 +73,7 @@ std::vector<Target> make_targets(const SurveyInput& input) {
       }
       if (!ok) continue;
       cv::Mat rvec, tvec;
-      if (!cv::solvePnP(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false,
-                        cv::SOLVEPNP_IPPE_SQUARE))
+      if (!cv::solvePnP(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false, cv::SOLVEPNP_IPPE_SQUARE))
         continue;
       cv::Mat Rm;
       cv::Rodrigues(rvec, Rm);
@@ -101,8 +99,8 @@ std::vector<Target> make_targets(const SurveyInput& input) {
   return out;
 }
 
-void initial_poses(const SurveyInput& input, const std::vector<Target>& targets,
-                   std::vector<Eigen::Matrix3d>& R_cw, std::vector<Eigen::Vector3d>& centre) {
+void initial_poses(const SurveyInput& input, const std::vector<Target>& targets, std::vector<Eigen::Matrix3d>& R_cw,
+                   std::vector<Eigen::Vector3d>& centre) {
   const std::size_t nc = input.cameras.size();
   // In the frame of a root camera first: pose of each camera in it (x_root = Rr x_cam + tr).
   std::vector<Eigen::Matrix3d> Rr(nc, Eigen::Matrix3d::Identity());

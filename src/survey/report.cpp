@@ -15,7 +15,8 @@
 namespace ips::survey {
 namespace {
 
-const cv::Scalar kColours[] = {{40, 40, 220}, {40, 160, 40}, {200, 80, 40}, {0, 150, 220}, {160, 40, 160}, {120, 120, 0}};
+const cv::Scalar kColours[] = {{40, 40, 220}, {40, 160, 40},  {200, 80, 40},
+                               {0, 150, 220}, {160, 40, 160}, {120, 120, 0}};
 
 std::vector<Eigen::Vector2d> footprint(const CameraResult& cam, const CameraModel& model) {
   std::vector<Eigen::Vector2d> out;
@@ -105,7 +106,8 @@ void write_report_png(const SurveyResult& result, const SurveyInput& input, cons
     cv::putText(img, text, at + cv::Point(9, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   }
   char title[200];
-  std::snprintf(title, sizeof title, "ips survey: %zu cameras, %d instants, RMS %.3f px; grid 1 m; reference errors x100",
+  std::snprintf(title, sizeof title,
+                "ips survey: %zu cameras, %d instants, RMS %.3f px; grid 1 m; reference errors x100",
                 result.cameras.size(), result.instants, result.final_rms_px);
   cv::putText(img, title, cv::Point(10, 30), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   if (!cv::imwrite(path.string(), img)) throw InputError(path.string() + ": cannot write the report image");

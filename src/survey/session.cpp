@@ -29,9 +29,7 @@ void fnv_number(std::uint64_t& h, double v) {
   fnv(h, buf, static_cast<std::size_t>(n));
 }
 
-std::string where(const std::filesystem::path& file, int line) {
-  return file.string() + ":" + std::to_string(line);
-}
+std::string where(const std::filesystem::path& file, int line) { return file.string() + ":" + std::to_string(line); }
 
 }  // namespace
 
@@ -69,9 +67,9 @@ std::string session_header(const Session& s) {
 
 std::string detection_line(const Detection& d) {
   char buf[200];
-  std::snprintf(buf, sizeof buf, "%" PRId64 " %d %.3f %.3f %.3f %.3f %.3f %.3f %.3f %.3f", d.t_ns, d.id,
-                d.corners[0].x, d.corners[0].y, d.corners[1].x, d.corners[1].y, d.corners[2].x,
-                d.corners[2].y, d.corners[3].x, d.corners[3].y);
+  std::snprintf(buf, sizeof buf, "%" PRId64 " %d %.3f %.3f %.3f %.3f %.3f %.3f %.3f %.3f", d.t_ns, d.id, d.corners[0].x,
+                d.corners[0].y, d.corners[1].x, d.corners[1].y, d.corners[2].x, d.corners[2].y, d.corners[3].x,
+                d.corners[3].y);
   return buf;
 }
 
@@ -98,8 +96,8 @@ Session load_session(const std::filesystem::path& dir) {
                          std::to_string(kSessionVersion) + ")");
       format_seen = true;
     } else if (!format_seen) {
-      throw InputError(where(header, n) + ": expected \"" + kSessionFormat + " " +
-                       std::to_string(kSessionVersion) + "\" first");
+      throw InputError(where(header, n) + ": expected \"" + kSessionFormat + " " + std::to_string(kSessionVersion) +
+                       "\" first");
     } else if (key == "config") {
       s.config = rest;
     } else if (key == "fingerprint") {
@@ -166,8 +164,8 @@ std::vector<Reference> load_references(const std::filesystem::path& path) {
   std::vector<Reference> refs;
   for (std::size_t i = 0; i < list.size(); ++i) {
     const YAML::Node n = list[i];
-    const std::string at = path.string() + ":" + std::to_string(n.Mark().line + 1) + ": references[" +
-                           std::to_string(i) + "]";
+    const std::string at =
+        path.string() + ":" + std::to_string(n.Mark().line + 1) + ": references[" + std::to_string(i) + "]";
     if (!n.IsMap()) throw InputError(at + ": expected {id: N, x: X, y: Y, z: Z}");
     for (const auto& kv : n) {
       if (!kv.first.IsScalar()) throw InputError(at + ": a key must be a plain word (id, x, y, z)");

@@ -47,7 +47,8 @@ std::vector<StillPeriod> find_still_periods(const Session& session, const StillO
       // Named variables, not a structured binding: clang 14 cannot capture one in `emit`.
       const int id = entry.first;
       std::vector<const Detection*>& dets = entry.second;
-      std::stable_sort(dets.begin(), dets.end(), [](const Detection* a, const Detection* b) { return a->t_ns < b->t_ns; });
+      std::stable_sort(dets.begin(), dets.end(),
+                       [](const Detection* a, const Detection* b) { return a->t_ns < b->t_ns; });
       std::size_t start = 0;
       Mean mean;
       auto emit = [&](std::size_t end) {  // [start, end)
@@ -106,7 +107,8 @@ std::vector<Instant> group_instants(const std::vector<StillPeriod>& periods, dou
     }
     g.t0_ns = std::max(g.t0_ns, p.t0_ns);
     g.t1_ns = std::min(g.t1_ns, p.t1_ns);
-    auto same = std::find_if(g.views.begin(), g.views.end(), [&](const StillPeriod& v) { return v.camera == p.camera; });
+    auto same =
+        std::find_if(g.views.begin(), g.views.end(), [&](const StillPeriod& v) { return v.camera == p.camera; });
     if (same == g.views.end())
       g.views.push_back(p);
     else if (p.frames > same->frames)
@@ -114,9 +116,8 @@ std::vector<Instant> group_instants(const std::vector<StillPeriod>& periods, dou
   }
   std::vector<Instant> out;
   for (auto& [root, g] : groups) out.push_back(std::move(g));
-  std::sort(out.begin(), out.end(), [](const Instant& a, const Instant& b) {
-    return a.views.front().t0_ns < b.views.front().t0_ns;
-  });
+  std::sort(out.begin(), out.end(),
+            [](const Instant& a, const Instant& b) { return a.views.front().t0_ns < b.views.front().t0_ns; });
   return out;
 }
 

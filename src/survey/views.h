@@ -13,9 +13,9 @@ namespace ips::survey::detail {
 /// One camera's view of one instant: the four corners as unit rays in the camera frame.
 struct View {
   int camera = -1;
-  std::array<Eigen::Vector3d, 4> ray;  ///< unit viewing rays of the mean corners
+  std::array<Eigen::Vector3d, 4> ray;                  ///< unit viewing rays of the mean corners
   Eigen::Matrix3d R_cm = Eigen::Matrix3d::Identity();  ///< marker -> camera, from PnP
-  Eigen::Vector3d t_cm = Eigen::Vector3d::Zero();       ///< marker centre in the camera frame
+  Eigen::Vector3d t_cm = Eigen::Vector3d::Zero();      ///< marker centre in the camera frame
 };
 
 /// One marker pose to solve for (a wand instant) or a reference (centre known).
@@ -36,7 +36,7 @@ std::vector<Target> make_targets(const SurveyInput& input);
 
 /// Camera poses (world -> camera: x_c = R_cw (x_w - centre)) by chaining per-view PnP
 /// through shared instants, then moved onto the references. Throws ips::InputError.
-void initial_poses(const SurveyInput& input, const std::vector<Target>& targets,
-                   std::vector<Eigen::Matrix3d>& R_cw, std::vector<Eigen::Vector3d>& centre);
+void initial_poses(const SurveyInput& input, const std::vector<Target>& targets, std::vector<Eigen::Matrix3d>& R_cw,
+                   std::vector<Eigen::Vector3d>& centre);
 
 }  // namespace ips::survey::detail

@@ -75,8 +75,8 @@ CameraView render_camera_view(const std::string& camera, const FrameSnapshot& sn
     }
     cv::polylines(color, poly, true, kDetected, thickness, cv::LINE_AA, 4);
     cv::circle(color, poly[0], 3 * 16, kDetected, cv::FILLED, cv::LINE_AA, 4);  // corner 0: the marker's top-left
-    cv::putText(color, std::to_string(d.id), cv::Point(cvRound(cx) + 6, cvRound(cy) - 6), cv::FONT_HERSHEY_SIMPLEX,
-                0.6, kDetected, 2, cv::LINE_AA);
+    cv::putText(color, std::to_string(d.id), cv::Point(cvRound(cx) + 6, cvRound(cy) - 6), cv::FONT_HERSHEY_SIMPLEX, 0.6,
+                kDetected, 2, cv::LINE_AA);
     info["detections"].push_back({{"id", d.id}, {"corners", corners}});
   }
   view.jpeg = encode(color);

@@ -32,8 +32,7 @@ void parse_web(const YAML::Node& node, const std::string& file, WebConfig& w) {
   if (w.image_width < 160 || w.image_width > 4096)
     r.fail(r.raw()["image_width"], "web.image_width", "must be 160..4096 (pixels)");
   r.get("max_clients", w.max_clients);
-  if (w.max_clients < 1 || w.max_clients > 256)
-    r.fail(r.raw()["max_clients"], "web.max_clients", "must be 1..256");
+  if (w.max_clients < 1 || w.max_clients > 256) r.fail(r.raw()["max_clients"], "web.max_clients", "must be 1..256");
   r.get("max_connections", w.max_connections);
   if (w.max_connections < 16 || w.max_connections > 1024)
     r.fail(r.raw()["max_connections"], "web.max_connections", "must be 16..1024");

@@ -12,8 +12,8 @@ namespace {
 bool valid_name(std::string_view s) {
   if (s.empty() || s.size() > 64 || s.front() == '.') return false;
   for (const char c : s) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                    c == '-' || c == '.';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
     if (!ok) return false;
   }
   return s.find("..") == std::string_view::npos;

@@ -41,7 +41,8 @@ struct CameraEntry {
 
 // `head`: a HEAD request gets the same status line and headers (Content-Length of the body a
 // GET would get) and no body.
-int send(mg_connection* conn, bool head, int status, const char* mime, const std::string& body, const char* extra = "") {
+int send(mg_connection* conn, bool head, int status, const char* mime, const std::string& body,
+         const char* extra = "") {
   mg_printf(conn,
             "HTTP/1.1 %d %s\r\nContent-Type: %s\r\nContent-Length: %zu\r\nCache-Control: no-store\r\n"
             "X-Content-Type-Options: nosniff\r\n%sConnection: close\r\n\r\n",
@@ -93,16 +94,14 @@ struct WebServer::Impl {
     const bool head = r.head;
     // Read-only: a request with a body (or a body length that is no number) is malformed here.
     const char* length = mg_get_header(conn, "Content-Length");
-    if (r.kind != Route::Kind::kBadMethod && ((length && std::strcmp(length, "0") != 0) ||
-                                              mg_get_header(conn, "Transfer-Encoding")))
+    if (r.kind != Route::Kind::kBadMethod &&
+        ((length && std::strcmp(length, "0") != 0) || mg_get_header(conn, "Transfer-Encoding")))
       r.kind = Route::Kind::kBadRequest;
     switch (r.kind) {
-      case Route::Kind::kBadRequest:
-        return error(conn, head, 400, "bad request (path, or a body on a GET)");
+      case Route::Kind::kBadRequest: return error(conn, head, 400, "bad request (path, or a body on a GET)");
       case Route::Kind::kBadMethod:
         return error(conn, false, 405, "read-only: only GET and HEAD are served", "Allow: GET, HEAD\r\n");
-      case Route::Kind::kNotFound:
-        return error(conn, head, 404, "no such page: " + path);
+      case Route::Kind::kNotFound: return error(conn, head, 404, "no such page: " + path);
       case Route::Kind::kPage:
       case Route::Kind::kAsset: {
         const Asset* a = find_asset(r.kind == Route::Kind::kPage ? "index.html" : r.name);
@@ -125,11 +124,9 @@ struct WebServer::Impl {
         }
         return send(conn, head, 200, "application/json", body + "\n");
       }
-      case Route::Kind::kEvents:
-        return stream(conn, head);
+      case Route::Kind::kEvents: return stream(conn, head);
       case Route::Kind::kCameraJpeg:
-      case Route::Kind::kCameraJson:
-        return camera(conn, r, query);
+      case Route::Kind::kCameraJson: return camera(conn, r, query);
     }
     return error(conn, head, 500, "unrouted");
   }
@@ -151,7 +148,7 @@ struct WebServer::Impl {
     for (;;) {
       const web::Message m = client->pop(kKeepAliveMs);
       const std::string& text = m ? *m : keepalive;
-      if (!m && client->closed()) break;  // the server is stopping
+      if (!m && client->closed()) break;                         // the server is stopping
       if (mg_write(conn, text.data(), text.size()) <= 0) break;  // gone (reset, closed, timed out)
       if (m) ++messages;
     }
@@ -174,12 +171,13 @@ struct WebServer::Impl {
       const auto min_interval = static_cast<std::int64_t>(1e9 / config.camera_fps);
       // .json after .jpg (the page and the tests read both) must describe the same frame:
       // only a .jpg request takes a new frame.
-      const bool fresh = entry.cache->view && (r.kind == Route::Kind::kCameraJson || now - entry.cache->made_ns < min_interval);
+      const bool fresh =
+          entry.cache->view && (r.kind == Route::Kind::kCameraJson || now - entry.cache->made_ns < min_interval);
       if (!fresh) {
         const auto snapshot = entry.tap->request(kFrameWaitNs);
         if (snapshot) {
-          entry.cache->view = std::make_shared<const CameraView>(
-              render_camera_view(r.name, *snapshot, config.image_width, dictionary));
+          entry.cache->view =
+              std::make_shared<const CameraView>(render_camera_view(r.name, *snapshot, config.image_width, dictionary));
           entry.cache->made_ns = monotonic_ns();
           ++frames;
         }
@@ -263,10 +261,21 @@ WebServer::WebServer(const WebConfig& config, const std::string& dictionary)
   const std::string threads = std::to_string(config.max_connections + config.max_clients);
   const std::string timeout_ms = std::to_string(std::lround(config.request_timeout_s * 1000));
   const std::string queue = std::to_string(config.max_connections);
-  const char* options[] = {"listening_ports", listen.c_str(), "num_threads", threads.c_str(),
-                           "request_timeout_ms", timeout_ms.c_str(), "enable_keep_alive", "no",
-                           "connection_queue", queue.c_str(), "listen_backlog", "512",
-                           "enable_directory_listing", "no", nullptr};
+  const char* options[] = {"listening_ports",
+                           listen.c_str(),
+                           "num_threads",
+                           threads.c_str(),
+                           "request_timeout_ms",
+                           timeout_ms.c_str(),
+                           "enable_keep_alive",
+                           "no",
+                           "connection_queue",
+                           queue.c_str(),
+                           "listen_backlog",
+                           "512",
+                           "enable_directory_listing",
+                           "no",
+                           nullptr};
   mg_callbacks callbacks{};
   callbacks.log_message = log_message;
   mg_init_data init{};
@@ -289,8 +298,8 @@ WebServer::WebServer(const WebConfig& config, const std::string& dictionary)
 }
 
 WebServer::~WebServer() {
-  impl_->hub.stop();        // closes every stream's queue: their threads return
-  mg_stop(impl_->ctx);      // waits for every request thread
+  impl_->hub.stop();    // closes every stream's queue: their threads return
+  mg_stop(impl_->ctx);  // waits for every request thread
 }
 
 std::vector<std::shared_ptr<FrameTap>> WebServer::set_cameras(const std::vector<std::string>& names) {

@@ -120,8 +120,15 @@ Message StreamHub::markers_message(std::int64_t now) const {
   auto& list = j["markers"] = nlohmann::json::array();
   for (const auto& [id, e] : table_) {
     const MarkerRecord& m = e.record;
-    nlohmann::json o{{"id", id}, {"x", m.x}, {"y", m.y}, {"z", m.z}, {"yaw", m.yaw}, {"cameras", m.camera_mask},
-                     {"quality", m.quality}, {"spread", m.spread}, {"t_mono_ns", e.t_mono_ns},
+    nlohmann::json o{{"id", id},
+                     {"x", m.x},
+                     {"y", m.y},
+                     {"z", m.z},
+                     {"yaw", m.yaw},
+                     {"cameras", m.camera_mask},
+                     {"quality", m.quality},
+                     {"spread", m.spread},
+                     {"t_mono_ns", e.t_mono_ns},
                      {"age", age(e.t_mono_ns)}};
     if (e.has_velocity) o.update({{"vx", m.vx}, {"vy", m.vy}});  // absent: not measured (as for bodies)
     list.push_back(std::move(o));
@@ -130,10 +137,20 @@ Message StreamHub::markers_message(std::int64_t now) const {
   auto& bodies = j["bodies"] = nlohmann::json::array();
   for (const auto& [name, e] : bodies_) {
     const BodyRecord& b = e.record;
-    nlohmann::json o{{"name", name}, {"x", b.x}, {"y", b.y}, {"z", b.z}, {"yaw", b.yaw}, {"has_yaw", b.has_yaw},
-                     {"q", {b.qw, b.qx, b.qy, b.qz}}, {"cameras", b.camera_mask}, {"ids", b.ids},
-                     {"id_count", b.id_count}, {"quality", b.quality}, {"spread", b.spread},
-                     {"t_mono_ns", e.t_mono_ns}, {"age", age(e.t_mono_ns)}};
+    nlohmann::json o{{"name", name},
+                     {"x", b.x},
+                     {"y", b.y},
+                     {"z", b.z},
+                     {"yaw", b.yaw},
+                     {"has_yaw", b.has_yaw},
+                     {"q", {b.qw, b.qx, b.qy, b.qz}},
+                     {"cameras", b.camera_mask},
+                     {"ids", b.ids},
+                     {"id_count", b.id_count},
+                     {"quality", b.quality},
+                     {"spread", b.spread},
+                     {"t_mono_ns", e.t_mono_ns},
+                     {"age", age(e.t_mono_ns)}};
     if (b.has_velocity) o.update({{"vx", b.vx}, {"vy", b.vy}, {"vz", b.vz}});  // absent: not measured
     if (b.has_yaw_rate) o["yaw_rate"] = b.yaw_rate;
     bodies.push_back(std::move(o));

@@ -59,7 +59,8 @@ TEST(BodyCli, IpsdCheckRefusesBadBodies) {
                            "/scenes/bodies_lab.yaml}\nmodel_file: model.json\n";
   const std::pair<std::string, std::string> cases[] = {
       {"bodies:\n  - {name: a, cube: {id: 1, edge: 0.05, size: 0}}\n", "bodies[0].cube.size: must be > 0"},
-      {"bodies:\n  - {name: a, cube: {id: 1, edge: 0.05, size: 0.1}}\n  - {name: b, flat: [{id: 1, edge: 0.1, offset: [0, 0]}]}\n",
+      {"bodies:\n  - {name: a, cube: {id: 1, edge: 0.05, size: 0.1}}\n  - {name: b, flat: [{id: 1, edge: 0.1, offset: "
+       "[0, 0]}]}\n",
        "bodies[1]: marker id 1 is already used by body 'a'"},
       {"bodies:\n  - {name: a, flat: [{id: 2, edge: 0.1, offset: [0, 0]}, {id: 3, edge: 0.1, offset: [0.05, 0]}]}\n",
        "bodies[0].flat[1]: overlapping faces in one plane"},

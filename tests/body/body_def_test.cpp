@@ -111,21 +111,27 @@ TEST(BodyParse, BadDefinitionsNameTheKey) {
   EXPECT_NE(error_of("- {name: a, cube: {id: 1, edge: 0.05, size: 0}}").find("bodies[0].cube.size: must be > 0"),
             std::string::npos);
   // An id used by two bodies.
-  const std::string two = error_of("- {name: a, flat: [{id: 3, edge: 0.1, offset: [0, 0]}]}\n"
-                                   "- {name: b, cube: {id: 3, edge: 0.05, size: 0.07}}");
+  const std::string two = error_of(
+      "- {name: a, flat: [{id: 3, edge: 0.1, offset: [0, 0]}]}\n"
+      "- {name: b, cube: {id: 3, edge: 0.05, size: 0.07}}");
   EXPECT_NE(two.find("bodies[1]: marker id 3 is already used by body 'a' (bodies[0])"), std::string::npos) << two;
   // Overlapping faces.
-  const std::string ov = error_of("- {name: a, flat: [{id: 3, edge: 0.1, offset: [0, 0]}, {id: 4, edge: 0.1, offset: [0.05, 0]}]}");
-  EXPECT_NE(ov.find("bodies[0].flat[1]: overlapping faces in one plane with bodies[0].flat[0]"), std::string::npos) << ov;
+  const std::string ov =
+      error_of("- {name: a, flat: [{id: 3, edge: 0.1, offset: [0, 0]}, {id: 4, edge: 0.1, offset: [0.05, 0]}]}");
+  EXPECT_NE(ov.find("bodies[0].flat[1]: overlapping faces in one plane with bodies[0].flat[0]"), std::string::npos)
+      << ov;
   // A marker larger than its cube face, a typo, a missing edge, a duplicate name.
-  EXPECT_NE(error_of("- {name: a, cube: {id: 1, edge: 0.2, size: 0.1}}").find("bodies[0].cube.edge"), std::string::npos);
-  EXPECT_NE(error_of("- {name: a, cube: {id: 1, edge: 0.05, size: 0.1, hieght: 2}}").find("bodies[0].cube.hieght: unknown key"),
+  EXPECT_NE(error_of("- {name: a, cube: {id: 1, edge: 0.2, size: 0.1}}").find("bodies[0].cube.edge"),
+            std::string::npos);
+  EXPECT_NE(error_of("- {name: a, cube: {id: 1, edge: 0.05, size: 0.1, hieght: 2}}")
+                .find("bodies[0].cube.hieght: unknown key"),
             std::string::npos);
   EXPECT_NE(error_of("- {name: a, flat: [{id: 3, offset: [0, 0]}]}").find("bodies[0].flat[0].edge: required"),
             std::string::npos);
-  EXPECT_NE(error_of("- {name: a, cube: {id: 1, edge: 0.05, size: 0.1}}\n- {name: a, cube: {id: 2, edge: 0.05, size: 0.1}}")
-                .find("bodies[1].name: duplicate body name 'a'"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of("- {name: a, cube: {id: 1, edge: 0.05, size: 0.1}}\n- {name: a, cube: {id: 2, edge: 0.05, size: 0.1}}")
+          .find("bodies[1].name: duplicate body name 'a'"),
+      std::string::npos);
   EXPECT_NE(error_of("- {name: a}").find("has no markers"), std::string::npos);
   EXPECT_NE(error_of("- {name: a, markers: [{id: 1, edge: 0.1, position: [0, 0, 0], normal: [0, 0, 0]}]}")
                 .find("bodies[0].markers[0].normal: must not be zero"),

@@ -4,9 +4,9 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cmath>
 #include <fstream>
 #include <memory>
 #include <random>
@@ -16,14 +16,14 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "../daemon/plane_model.h"
 #include "ips/body/body_estimate.h"
-#include "ips/detect/detector.h"
 #include "ips/capture/jpeg_decoder.h"
-#include "ips/mapping/mapper.h"
+#include "ips/detect/detector.h"
 #include "ips/geometry/marker_geometry.h"
+#include "ips/mapping/mapper.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
-#include "../daemon/plane_model.h"
 #include "published_scene.h"
 
 namespace ips::test {

@@ -94,7 +94,8 @@ TEST(BodyLoop, CubeAndTwoMarkerRobotOnThePublishedLab) {
       for (const auto& f : fused) {
         if (f.body != static_cast<int>(b)) continue;
         if (f.has_yaw && std::abs(wrap_angle(f.pose.yaw - truth.yaw)) > 10 * kDeg && std::getenv("IPS_BODY_LOOP_DEBUG"))
-          std::printf("yaw %s t %.2f: %.1f vs %.1f, %d obs\n", f.name.c_str(), t, f.pose.yaw / kDeg, truth.yaw / kDeg, f.observations);
+          std::printf("yaw %s t %.2f: %.1f vs %.1f, %d obs\n", f.name.c_str(), t, f.pose.yaw / kDeg, truth.yaw / kDeg,
+                      f.observations);
         ++s.updates;
         s.pos.push_back((f.pose.position - truth.position).head<2>().norm());
         if (f.has_yaw) s.yaw.push_back(std::abs(wrap_angle(f.pose.yaw - truth.yaw)));
@@ -103,11 +104,12 @@ TEST(BodyLoop, CubeAndTwoMarkerRobotOnThePublishedLab) {
   }
   for (std::size_t b = 0; b < stats.size(); ++b) {
     const Stats& s = stats[b];
-    std::printf("%-7s updates %d/%d instants (%.1f %%), camera frames with it %d/%d (%.1f %%), "
-                "position p95 %.2f cm max %.2f cm, yaw p95 %.3f deg max %.3f deg (%zu with yaw)\n",
-                lab.scene().bodies[b].def.name.c_str(), s.updates, s.instants, 100.0 * s.updates / s.instants,
-                s.camera_hits, s.camera_frames, 100.0 * s.camera_hits / s.camera_frames, 100 * quantile(s.pos, 0.95),
-                100 * quantile(s.pos, 1.0), quantile(s.yaw, 0.95) / kDeg, quantile(s.yaw, 1.0) / kDeg, s.yaw.size());
+    std::printf(
+        "%-7s updates %d/%d instants (%.1f %%), camera frames with it %d/%d (%.1f %%), "
+        "position p95 %.2f cm max %.2f cm, yaw p95 %.3f deg max %.3f deg (%zu with yaw)\n",
+        lab.scene().bodies[b].def.name.c_str(), s.updates, s.instants, 100.0 * s.updates / s.instants, s.camera_hits,
+        s.camera_frames, 100.0 * s.camera_hits / s.camera_frames, 100 * quantile(s.pos, 0.95),
+        100 * quantile(s.pos, 1.0), quantile(s.yaw, 0.95) / kDeg, quantile(s.yaw, 1.0) / kDeg, s.yaw.size());
   }
   std::filesystem::remove_all(dir);
   auto rate = [&](std::size_t b) { return static_cast<double>(stats[b].updates) / stats[b].instants; };

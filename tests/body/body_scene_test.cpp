@@ -90,7 +90,7 @@ TEST(BodyScene, TruthOfTiltedFaces) {
       EXPECT_FALSE(truth[i].visible) << "face " << i;
     }
   }
-  EXPECT_TRUE(truth[0].visible);  // top
+  EXPECT_TRUE(truth[0].visible);   // top
   EXPECT_TRUE(truth[1].visible);   // the face turned to 30 deg, towards the camera
   EXPECT_FALSE(truth[2].visible);  // 120 deg and 210 deg: turned away
   EXPECT_FALSE(truth[3].visible);

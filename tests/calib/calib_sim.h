@@ -30,8 +30,7 @@ inline LensViews make_views(const std::string& lens, int count, unsigned seed = 
   v.scene = std::make_unique<ips::sim::Scene>(
       ips::sim::Scene::load(std::string(IPS_CONFIG_DIR) + "/scenes/calib_lenses.yaml"));
   v.camera = std::make_unique<ips::sim::CameraRenderer>(*v.scene, v.scene->camera_index(lens));
-  v.board = std::make_unique<ips::calib::Board>(
-      ips::calib::BoardSpec::parse(ips::calib::kDefaultBoardSpec));
+  v.board = std::make_unique<ips::calib::Board>(ips::calib::BoardSpec::parse(ips::calib::kDefaultBoardSpec));
   v.renderer = std::make_unique<ips::sim::BoardRenderer>(*v.camera, *v.board, 0.01);
   ips::sim::BoardViewOptions o;
   o.views = count;

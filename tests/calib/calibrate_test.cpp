@@ -40,10 +40,11 @@ void check_lens(const std::string& lens, ips::CameraModel::Kind kind) {
   } catch (const cv::Exception& e) {
     std::printf("%s: plain OpenCV calibration fails: %s\n", lens.c_str(), e.err.c_str());
   }
-  std::printf("%s: RMS %.3f px, %d views used, coverage %.2f, field %.1f deg; vs truth max %.3f "
-              "rms %.3f px over %d px (plain OpenCV max %.3f rms %.3f)\n",
-              lens.c_str(), r.rms, r.used_views, r.coverage, r.max_field_deg, d.max_px, d.rms_px,
-              d.pixels, dp.max_px, dp.rms_px);
+  std::printf(
+      "%s: RMS %.3f px, %d views used, coverage %.2f, field %.1f deg; vs truth max %.3f "
+      "rms %.3f px over %d px (plain OpenCV max %.3f rms %.3f)\n",
+      lens.c_str(), r.rms, r.used_views, r.coverage, r.max_field_deg, d.max_px, d.rms_px, d.pixels, dp.max_px,
+      dp.rms_px);
   EXPECT_LE(r.rms, 0.3);
   EXPECT_GT(d.pixels, 1000);
   EXPECT_LE(d.max_px, 0.6);
@@ -115,8 +116,10 @@ void check_corners(const std::string& lens, int views) {
     }
   }
   ASSERT_GT(n, 8 * views);
-  std::printf("%s: mean corner error over %d corners: ours %.3f px (max %.3f), interpolated %.3f px, "
-              "fixed 15 px window %.3f px\n", lens.c_str(), n, ours / n, ours_max, raw / n, fixed / n);
+  std::printf(
+      "%s: mean corner error over %d corners: ours %.3f px (max %.3f), interpolated %.3f px, "
+      "fixed 15 px window %.3f px\n",
+      lens.c_str(), n, ours / n, ours_max, raw / n, fixed / n);
   EXPECT_LT(ours / n, 0.12);
   EXPECT_LT(ours_max, 0.6);
   EXPECT_LT(ours / n, 0.7 * fixed / n);

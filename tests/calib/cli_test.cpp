@@ -1,6 +1,6 @@
 // `ips board`, `ips sim board-views` and `ips calibrate` (offline and live) run as a user would.
-#include <array>
 #include <unistd.h>
+#include <array>
 
 #include <cstdio>
 #include <filesystem>
@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "ips/geometry/camera_model.h"
 #include "command.h"
+#include "ips/geometry/camera_model.h"
 
 namespace fs = std::filesystem;
 
@@ -23,7 +23,9 @@ const std::string kScene = std::string(IPS_CONFIG_DIR) + "/scenes/calib_lenses.y
 const std::string kBoard = "charuco:7x5:0.04:0.03:DICT_5X5_100";
 
 using CmdResult = ips::test::CommandResult;
-CmdResult run(const std::string& args, bool with_stderr = true) { return ips::test::run_program("ips", args, with_stderr); }
+CmdResult run(const std::string& args, bool with_stderr = true) {
+  return ips::test::run_program("ips", args, with_stderr);
+}
 
 std::string numbered(const char* pattern, int i) {
   char buf[64];
@@ -43,8 +45,7 @@ fs::path temp_dir(const std::string& name) {
 const fs::path& views_dir() {
   static const fs::path dir = [] {
     const fs::path d = temp_dir("views");
-    const auto r = run("sim board-views --scene " + kScene + " --camera pinhole --views 14 --out " +
-                       d.string());
+    const auto r = run("sim board-views --scene " + kScene + " --camera pinhole --views 14 --out " + d.string());
     EXPECT_EQ(r.status, 0) << r.out;
     return d;
   }();
@@ -102,9 +103,8 @@ TEST(CalibCli, BoardViewsWriteImagesAndTruth) {
 TEST(CalibCli, CalibrateOfflineWritesLoadableIntrinsicsReportAndJson) {
   const fs::path& views = views_dir();
   const fs::path d = temp_dir("offline");
-  const auto r = run("calibrate --images " + views.string() + " --board " + kBoard +
-                         " --model pinhole --out " + (d / "intr.yaml").string() + " --report " +
-                         (d / "report.png").string() + " --json",
+  const auto r = run("calibrate --images " + views.string() + " --board " + kBoard + " --model pinhole --out " +
+                         (d / "intr.yaml").string() + " --report " + (d / "report.png").string() + " --json",
                      false);
   ASSERT_EQ(r.status, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
@@ -142,13 +142,11 @@ TEST(CalibCli, BadInputExitsTwoAndWritesNothing) {
   expect_error("--images " + (d / "blank").string() + " --board " + kBoard, "no board");
   // Too few views.
   fs::create_directories(d / "few");
-  for (int i = 0; i < 3; ++i)
-    fs::copy_file(views / numbered("view_%03d.jpg", i), d / "few" / numbered("v%d.jpg", i));
+  for (int i = 0; i < 3; ++i) fs::copy_file(views / numbered("view_%03d.jpg", i), d / "few" / numbered("v%d.jpg", i));
   expect_error("--images " + (d / "few").string() + " --board " + kBoard, "too few views");
   // Images of different sizes.
   fs::create_directories(d / "mixed");
-  for (int i = 0; i < 8; ++i)
-    fs::copy_file(views / numbered("view_%03d.jpg", i), d / "mixed" / numbered("v%d.jpg", i));
+  for (int i = 0; i < 8; ++i) fs::copy_file(views / numbered("view_%03d.jpg", i), d / "mixed" / numbered("v%d.jpg", i));
   cv::imwrite((d / "mixed" / "z.png").string(), cv::Mat(480, 640, CV_8U, cv::Scalar(128)));
   expect_error("--images " + (d / "mixed").string() + " --board " + kBoard, "different sizes");
   // An unreadable image.
@@ -185,8 +183,8 @@ TEST(CalibCli, LiveModeOnAFileSourceKeepsStillViews) {
                                     "loop: false, intrinsics: cam0.yaml}\n"
                                     "markers: {dictionary: DICT_4X4_100, edge_length: 0.2}\n"
                                     "model_file: model.json\n";
-  const auto r = run("calibrate --config " + (d / "ipsd.yaml").string() + " --camera cam0 --board " +
-                     kBoard + " --model pinhole --views 12 --out " + (d / "cam0.yaml").string());
+  const auto r = run("calibrate --config " + (d / "ipsd.yaml").string() + " --camera cam0 --board " + kBoard +
+                     " --model pinhole --views 12 --out " + (d / "cam0.yaml").string());
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("views kept"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("missing:"), std::string::npos) << r.out;

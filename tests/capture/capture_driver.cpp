@@ -32,9 +32,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "emu_control.h"
+#include "ips/capture/v4l2_source.h"
 #include "ips/core/clock.h"
 #include "ips/core/error.h"
-#include "ips/capture/v4l2_source.h"
 
 namespace {
 
@@ -50,8 +50,7 @@ int count_fds() {
 int count_buffer_maps() {
   std::ifstream maps("/proc/self/maps");
   int n = 0;
-  for (std::string line; std::getline(maps, line);)
-    n += line.find("ips-v4l2-emu") != std::string::npos;
+  for (std::string line; std::getline(maps, line);) n += line.find("ips-v4l2-emu") != std::string::npos;
   return n;
 }
 
@@ -65,8 +64,8 @@ bool read_frame(ips::V4L2Source& source, ips::Frame& frame, int limit = 200) {
 void print_granted(const ips::V4L2Source& s) {
   const auto& g = s.granted();
   std::printf("granted format=%s width=%d height=%d fps=%.3f buffers=%d driver=%s card=%s",
-              g.format == ips::PixelFormat::kMjpeg ? "MJPEG" : "YUYV", g.width, g.height, g.fps,
-              g.buffer_count, g.driver.c_str(), g.card.c_str());
+              g.format == ips::PixelFormat::kMjpeg ? "MJPEG" : "YUYV", g.width, g.height, g.fps, g.buffer_count,
+              g.driver.c_str(), g.card.c_str());
   if (g.exposure_s) std::printf(" exposure_s=%.4f", *g.exposure_s);
   if (g.gain) std::printf(" gain=%d", *g.gain);
   if (g.autofocus) std::printf(" autofocus=%d", *g.autofocus ? 1 : 0);
@@ -84,20 +83,15 @@ int capture(ips::V4L2Source& source, int frames, const std::string& dump_dir) {
     if (status == Status::kCorrupt) std::printf("corrupt\n");
     if (status != Status::kFrame) continue;
     ++got;
-    std::printf(
-        "frame seq=%llu mono=%lld real=%lld read_mono=%lld offset=%lld width=%d height=%d\n",
-        static_cast<unsigned long long>(frame.sequence), static_cast<long long>(frame.t_mono_ns),
-        static_cast<long long>(frame.t_real_ns), static_cast<long long>(ips::monotonic_ns()),
-        static_cast<long long>(ips::realtime_minus_monotonic_ns()), frame.gray.cols,
-        frame.gray.rows);
-    if (!dump_dir.empty())
-      cv::imwrite(dump_dir + "/frame_" + std::to_string(frame.sequence) + ".png", frame.gray);
+    std::printf("frame seq=%llu mono=%lld real=%lld read_mono=%lld offset=%lld width=%d height=%d\n",
+                static_cast<unsigned long long>(frame.sequence), static_cast<long long>(frame.t_mono_ns),
+                static_cast<long long>(frame.t_real_ns), static_cast<long long>(ips::monotonic_ns()),
+                static_cast<long long>(ips::realtime_minus_monotonic_ns()), frame.gray.cols, frame.gray.rows);
+    if (!dump_dir.empty()) cv::imwrite(dump_dir + "/frame_" + std::to_string(frame.sequence) + ".png", frame.gray);
   }
   const auto& st = source.stats();
-  std::printf("stats frames=%llu corrupt=%llu drops=%llu\n",
-              static_cast<unsigned long long>(st.frames),
-              static_cast<unsigned long long>(st.corrupt),
-              static_cast<unsigned long long>(st.driver_drops));
+  std::printf("stats frames=%llu corrupt=%llu drops=%llu\n", static_cast<unsigned long long>(st.frames),
+              static_cast<unsigned long long>(st.corrupt), static_cast<unsigned long long>(st.driver_drops));
   source.close();
   return got == frames ? 0 : 1;
 }
@@ -129,12 +123,11 @@ int unplug(ips::V4L2Source& source, const std::string& control, int cycles) {
     source.open();
     if (!read_frame(source, frame)) return 1;
   }
-  std::printf("replugged_frames=%llu opens=%llu\n",
-              static_cast<unsigned long long>(source.stats().frames),
+  std::printf("replugged_frames=%llu opens=%llu\n", static_cast<unsigned long long>(source.stats().frames),
               static_cast<unsigned long long>(source.stats().opens));
   source.close();
-  std::printf("fds_before=%d fds_after=%d maps_before=%d maps_after=%d\n", fds_before, count_fds(),
-              maps_before, count_buffer_maps());
+  std::printf("fds_before=%d fds_after=%d maps_before=%d maps_after=%d\n", fds_before, count_fds(), maps_before,
+              count_buffer_maps());
   return 0;
 }
 
@@ -162,8 +155,7 @@ int raw(const std::string& device) {
     mem.push_back(static_cast<std::uint8_t*>(p));
   }
   pollfd pfd{fd, POLLIN, 0};
-  std::printf("poll_before_streamon=%s\n",
-              ::poll(&pfd, 1, 0) == 1 && (pfd.revents & POLLERR) ? "POLLERR" : "other");
+  std::printf("poll_before_streamon=%s\n", ::poll(&pfd, 1, 0) == 1 && (pfd.revents & POLLERR) ? "POLLERR" : "other");
   v4l2_buf_type type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   if (::ioctl(fd, VIDIOC_STREAMON, &type) != 0) return 1;
   const std::int64_t t_on = ips::monotonic_ns();
@@ -219,13 +211,11 @@ struct CameraThread {
 
 // Waits (up to 20 s, only reached on failure) for `done` to hold.
 bool wait_for(const std::function<bool()>& done) {
-  for (int i = 0; i < 2000 && !done(); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 2000 && !done(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   return done();
 }
 
-int two_cameras(const ips::V4L2Options& options, const std::string& device2,
-                const std::string& control) {
+int two_cameras(const ips::V4L2Options& options, const std::string& device2, const std::string& control) {
   ips::V4L2Options options2 = options;
   options2.device = device2;
   CameraThread cam0(options), cam1(options2);
@@ -238,14 +228,12 @@ int two_cameras(const ips::V4L2Options& options, const std::string& device2,
     }
     return ok;
   };
-  if (check(wait_for([&] { return cam0.frames >= 5 && cam1.frames >= 5; }),
-            "both cameras streaming")) {
+  if (check(wait_for([&] { return cam0.frames >= 5 && cam1.frames >= 5; }), "both cameras streaming")) {
     ips::test::set_emu_control(control, "present", "0");
     if (check(wait_for([&] { return cam0.failures >= 1; }), "unplug detected")) {
       const std::uint64_t f0 = cam0.frames, f1 = cam1.frames;
       check(wait_for([&] { return cam1.frames >= f1 + 20; }), "second camera keeps delivering");
-      std::printf("during_unplug cam0=%llu cam1=%llu\n",
-                  static_cast<unsigned long long>(cam0.frames - f0),
+      std::printf("during_unplug cam0=%llu cam1=%llu\n", static_cast<unsigned long long>(cam0.frames - f0),
                   static_cast<unsigned long long>(cam1.frames - f1));
       ips::test::set_emu_control(control, "present", "1");
       const bool resumed = wait_for([&] { return cam0.frames >= f0 + 5; });
@@ -268,9 +256,7 @@ int main(int argc, char** argv) {
   ips::V4L2Options options;
   int frames = 10, cycles = 1;
   std::string device2;
-  app.add_option("mode", mode)
-      ->required()
-      ->check(CLI::IsMember({"capture", "unplug", "two", "raw"}));
+  app.add_option("mode", mode)->required()->check(CLI::IsMember({"capture", "unplug", "two", "raw"}));
   app.add_option("--device", options.device)->required();
   app.add_option("--device2", device2);
   app.add_option("--width", options.width);

@@ -14,8 +14,7 @@ namespace fs = std::filesystem;
 TEST(IpsCameras, ListsDevicesFormatsSizesRatesAndByIdLinks) {
   ips::test::TempDir dir;
   fs::create_directories(dir / "dev/v4l/by-id");
-  for (const char* node : {"video0", "video1", "video10"})
-    std::ofstream(dir / ("dev/" + std::string(node)));
+  for (const char* node : {"video0", "video1", "video10"}) std::ofstream(dir / ("dev/" + std::string(node)));
   fs::create_symlink("../../video0", dir / "dev/v4l/by-id/usb-Emu_Ceiling_Cam_SN1-video-index0");
   ips::test::write_emu_control(dir / "a.conf", {{"formats", "MJPG,YUYV"},
                                                 {"sizes", "1920x1080,1280x720"},
@@ -29,9 +28,9 @@ TEST(IpsCameras, ListsDevicesFormatsSizesRatesAndByIdLinks) {
                                                 {"unsupported_controls",
                                                  "gain,focus_auto,exposure_auto,"
                                                  "exposure_absolute"}});
-  const auto r = ips::test::run_emulated(
-      {IPS_TOOL, "cameras", "--dev-dir", dir / "dev"},
-      {{dir / "dev/video0", dir / "a.conf"}, {dir / "dev/video1", dir / "b.conf"}}, dir.str());
+  const auto r =
+      ips::test::run_emulated({IPS_TOOL, "cameras", "--dev-dir", dir / "dev"},
+                              {{dir / "dev/video0", dir / "a.conf"}, {dir / "dev/video1", dir / "b.conf"}}, dir.str());
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const std::string& out = r.out;
   const std::string expected_a = dir / "dev/video0" +
@@ -60,16 +59,14 @@ TEST(IpsCameras, ListsDevicesFormatsSizesRatesAndByIdLinks) {
                                  "    power_line_hz: now 50\n";
   EXPECT_NE(out.find(expected_b), std::string::npos) << out;
   // video10 is listed after video1 (numeric order) and is not a V4L2 device.
-  EXPECT_GT(out.find(dir / "dev/video10: cannot query: not a V4L2 device"), out.find(expected_b))
-      << out;
+  EXPECT_GT(out.find(dir / "dev/video10: cannot query: not a V4L2 device"), out.find(expected_b)) << out;
   EXPECT_NE(out.find("2 capture device(s)"), std::string::npos) << out;
 }
 
 TEST(IpsCameras, SaysSoWhenThereIsNoCamera) {
   ips::test::TempDir dir;
   fs::create_directories(dir / "dev");
-  const auto r =
-      ips::test::run_emulated({IPS_TOOL, "cameras", "--dev-dir", dir / "dev"}, {}, dir.str());
+  const auto r = ips::test::run_emulated({IPS_TOOL, "cameras", "--dev-dir", dir / "dev"}, {}, dir.str());
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("No V4L2 video devices in " + dir / "dev"), std::string::npos) << r.out;
 }

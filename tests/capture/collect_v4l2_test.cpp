@@ -42,11 +42,11 @@ TEST(CollectOnV4l2, RecordsThePairOfAStaticMarker) {
                                       "intrinsics: "
                                    << IPS_TEST_DATA_DIR << "/ou2023/intrinsics_red.yaml}\nmodel_file: model.json\n";
   std::ofstream(dir / "typed.txt") << "2,2 1.55\n2.2 1.55 0.15\n";
-  const auto r = ips::test::run_emulated(
-      {"/bin/sh", "-c",
-       std::string(IPS_TOOL) + " collect --config " + (dir / "ipsd.yaml") + " --marker 0 --frames 5 --out " +
-           (dir / "pairs.csv") + " < " + (dir / "typed.txt")},
-      {{"/dev/video-emu0", dir / "red.conf"}}, dir.str());
+  const auto r =
+      ips::test::run_emulated({"/bin/sh", "-c",
+                               std::string(IPS_TOOL) + " collect --config " + (dir / "ipsd.yaml") +
+                                   " --marker 0 --frames 5 --out " + (dir / "pairs.csv") + " < " + (dir / "typed.txt")},
+                              {{"/dev/video-emu0", dir / "red.conf"}}, dir.str());
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("not understood: use spaces between the numbers"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("red        seen in  5/5  frames"), std::string::npos) << r.out;

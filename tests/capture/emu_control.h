@@ -36,8 +36,7 @@ inline void write_emu_control(const std::string& path, const EmuSettings& settin
   std::filesystem::rename(tmp, path);
 }
 
-inline void set_emu_control(const std::string& path, const std::string& key,
-                            const std::string& value) {
+inline void set_emu_control(const std::string& path, const std::string& key, const std::string& value) {
   EmuSettings settings = read_emu_control(path);
   settings[key] = value;
   write_emu_control(path, settings);

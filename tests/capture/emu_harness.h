@@ -66,12 +66,10 @@ inline std::string loaded_asan_runtime() {
 /// Starts `argv` with the emulator preloaded, serving `devices` (fake path -> control file),
 /// stdout to `out_path` and stderr to `err_path` (may be the same file). Returns the pid, or
 /// -1 (errno set) if the program could not be started.
-inline pid_t spawn_emulated(const std::vector<std::string>& argv,
-                            const std::map<std::string, std::string>& devices,
+inline pid_t spawn_emulated(const std::vector<std::string>& argv, const std::map<std::string, std::string>& devices,
                             const std::string& out_path, const std::string& err_path) {
   std::string device_list;
-  for (const auto& [path, control] : devices)
-    device_list += (device_list.empty() ? "" : ",") + path + "=" + control;
+  for (const auto& [path, control] : devices) device_list += (device_list.empty() ? "" : ",") + path + "=" + control;
   const std::string asan = loaded_asan_runtime();
   std::map<std::string, std::string> env_map;
   for (char** e = environ; *e; ++e) {
@@ -96,13 +94,11 @@ inline pid_t spawn_emulated(const std::vector<std::string>& argv,
 
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
-                                   0644);
+  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   if (err_path == out_path)
     posix_spawn_file_actions_adddup2(&actions, 1, 2);
   else
-    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
-                                     0644);
+    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   pid_t pid = 0;
   const int rc = posix_spawn(&pid, args[0], &actions, nullptr, args.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
@@ -121,8 +117,7 @@ inline std::string read_text(const std::string& path) {
 }
 
 /// Runs `argv` with the emulator preloaded to completion and collects its output.
-inline ChildResult run_emulated(const std::vector<std::string>& argv,
-                                const std::map<std::string, std::string>& devices,
+inline ChildResult run_emulated(const std::vector<std::string>& argv, const std::map<std::string, std::string>& devices,
                                 const std::string& work_dir) {
   const std::string out_path = work_dir + "/child.out", err_path = work_dir + "/child.err";
   ChildResult result;
@@ -152,8 +147,7 @@ inline std::string field(const std::string& line, const std::string& key) {
   const std::size_t next = line.find('=', start);
   if (next == std::string::npos) return line.substr(start);
   const std::size_t end = line.rfind(' ', next);
-  return line.substr(start,
-                     end == std::string::npos || end < start ? std::string::npos : end - start);
+  return line.substr(start, end == std::string::npos || end < start ? std::string::npos : end - start);
 }
 
 inline std::vector<std::string> lines_starting(const std::string& text, const std::string& prefix) {

@@ -11,9 +11,9 @@
 #include <opencv2/videoio.hpp>
 
 #include "emu_harness.h"
+#include "ips/capture/jpeg_decoder.h"
 #include "ips/core/clock.h"
 #include "ips/core/error.h"
-#include "ips/capture/jpeg_decoder.h"
 
 namespace {
 
@@ -54,8 +54,8 @@ TEST(FileSource, DirectoryLoopsInNameOrderPacedAndTimestamped) {
     EXPECT_GT(f.t_mono_ns, previous);
     // Paced at 200 fps: frame k is not delivered before open + k * 5 ms.
     EXPECT_GE(f.t_mono_ns - t_open, k * 5'000'000LL);
-    EXPECT_NEAR(static_cast<double>(f.t_real_ns - f.t_mono_ns),
-                static_cast<double>(ips::realtime_minus_monotonic_ns()), 5e6);
+    EXPECT_NEAR(static_cast<double>(f.t_real_ns - f.t_mono_ns), static_cast<double>(ips::realtime_minus_monotonic_ns()),
+                5e6);
     previous = f.t_mono_ns;
   }
 }
@@ -102,8 +102,8 @@ TEST(FileSource, VideoFileLoops) {
   ips::test::TempDir dir;
   const std::string video = dir / "clip.avi";
   {
-    cv::VideoWriter writer(video, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
-                           10, cv::Size(64, 48));
+    cv::VideoWriter writer(video, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10,
+                           cv::Size(64, 48));
     ASSERT_TRUE(writer.isOpened());
     for (int v : {40, 120, 200}) {
       cv::Mat bgr;
@@ -117,9 +117,7 @@ TEST(FileSource, VideoFileLoops) {
   for (int k = 0; k < 7; ++k) {
     ASSERT_EQ(next(source, f), Status::kFrame) << "frame " << k;
     ASSERT_EQ(f.gray.size(), cv::Size(64, 48));
-    EXPECT_NEAR(f.gray.at<uchar>(20, 20),
-                (std::array{40, 120, 200})[static_cast<std::size_t>(k % 3)], 3)
-        << k;
+    EXPECT_NEAR(f.gray.at<uchar>(20, 20), (std::array{40, 120, 200})[static_cast<std::size_t>(k % 3)], 3) << k;
   }
 }
 
@@ -191,7 +189,7 @@ TEST(FileSource, PreloadedDirectoryReplaysFromMemory) {
     EXPECT_EQ(b.sequence, static_cast<std::uint64_t>(i));
   }
   EXPECT_EQ(next(memory, b), Status::kCorrupt);  // f4.jpg
-  ASSERT_EQ(next(memory, b), Status::kFrame);     // looped: f0 again, from memory
+  ASSERT_EQ(next(memory, b), Status::kFrame);    // looped: f0 again, from memory
   EXPECT_EQ(cv::norm(b.gray(cv::Rect(0, 0, 8, 8)), cv::NORM_INF) > 0, true);
   ips::FileSourceOptions bad{dir / "f0.jpg", 30.0, true};
   bad.preload = true;

@@ -19,15 +19,15 @@
 #include <sstream>
 #include <thread>
 
-#include "emu_control.h"
 #include "child_process.h"
+#include "emu_control.h"
 #include "emu_harness.h"
-#include "loopback_udp.h"
-#include "published_scene.h"
 #include "ips/core/clock.h"
 #include "ips/output/packet_codec.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
+#include "loopback_udp.h"
+#include "published_scene.h"
 
 namespace {
 
@@ -62,10 +62,9 @@ class IpsdOnEmulatedCameras : public ::testing::Test {
     // The camera->world model: simulated calibration pairs, plane mapper (as tools/demo.sh).
     const std::string ips = IPS_TOOL;
     for (const auto& argv : std::vector<std::vector<std::string>>{
-             {ips, "sim", "collect", "--scene", dir_ / "scene.yaml", "--camera", "red", "--camera",
-              "white", "--points", "25", "--out", dir_ / "pairs.csv"},
-             {ips, "fit", "--data", dir_ / "pairs.csv", "--method", "plane", "--out",
-              dir_ / "model.json"}}) {
+             {ips, "sim", "collect", "--scene", dir_ / "scene.yaml", "--camera", "red", "--camera", "white", "--points",
+              "25", "--out", dir_ / "pairs.csv"},
+             {ips, "fit", "--data", dir_ / "pairs.csv", "--method", "plane", "--out", dir_ / "model.json"}}) {
       const auto r = ips::test::run_emulated(argv, {}, dir_.str());
       ASSERT_EQ(r.status, 0) << r.out << r.err;
     }
@@ -78,13 +77,10 @@ class IpsdOnEmulatedCameras : public ::testing::Test {
       for (int k = 0; k < 3; ++k) {
         renderer.render(0.0, gray, static_cast<std::uint64_t>(k));
         const auto jpeg = ips::sim::encode_jpeg(gray, 90, true);
-        std::ofstream(dir_ / ("frames_" + std::string(name) + "/f" + std::to_string(k) + ".jpg"),
-                      std::ios::binary)
-            .write(reinterpret_cast<const char*>(jpeg.data()),
-                   static_cast<std::streamsize>(jpeg.size()));
+        std::ofstream(dir_ / ("frames_" + std::string(name) + "/f" + std::to_string(k) + ".jpg"), std::ios::binary)
+            .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
       }
-      for (const auto& t : renderer.truth(0.0))
-        ASSERT_TRUE(t.visible) << name << " does not see marker " << t.id;
+      for (const auto& t : renderer.truth(0.0)) ASSERT_TRUE(t.visible) << name << " does not see marker " << t.id;
       ips::test::write_emu_control(dir_ / (std::string(name) + ".conf"),
                                    {{"formats", "MJPG"},
                                     {"sizes", "1920x1080"},
@@ -98,15 +94,13 @@ class IpsdOnEmulatedCameras : public ::testing::Test {
     std::string c = "cameras:\n";
     int i = 0;
     for (const char* name : {"red", "white"})
-      c += std::string("  - {name: ") + name + ", source: v4l2, device: /dev/video-emu" +
-           std::to_string(i++) + ", fps: " + std::to_string(kFps) +
-           ", intrinsics: " + IPS_TEST_DATA_DIR + "/ou2023/intrinsics_" + name +
+      c += std::string("  - {name: ") + name + ", source: v4l2, device: /dev/video-emu" + std::to_string(i++) +
+           ", fps: " + std::to_string(kFps) + ", intrinsics: " + IPS_TEST_DATA_DIR + "/ou2023/intrinsics_" + name +
            ".yaml, controls: {exposure: 0.004, power_line_hz: 50, autofocus: false}}\n";
     c += "markers:\n  ids:\n    1: {height: 0.15}\n    2: {height: 0.10}\n";
     c += "model_file: model.json\n";
     c += "fusion: {method: mean, window: 0.02, max_wait: 0.3}\n";
-    c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(port) +
-         ", format: binary}\n";
+    c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(port) + ", format: binary}\n";
     return c;
   }
 
@@ -121,8 +115,7 @@ std::int64_t capture_ns(const ips::Datagram& d, const ips::MarkerRecord& m) {
 
 // Receives until `done(datagram)` returns true or `seconds` pass (the deadline is only
 // reached when something is wrong). Returns whether `done` was satisfied.
-bool receive_until(UdpReceiver& rx, double seconds,
-                   const std::function<bool(const ips::Datagram&)>& done) {
+bool receive_until(UdpReceiver& rx, double seconds, const std::function<bool(const ips::Datagram&)>& done) {
   const std::int64_t end = ips::monotonic_ns() + static_cast<std::int64_t>(seconds * 1e9);
   while (ips::monotonic_ns() < end)
     if (auto bytes = rx.receive(50); bytes && done(ips::decode_datagram(*bytes))) return true;
@@ -136,8 +129,8 @@ TEST_F(IpsdOnEmulatedCameras, StreamsBothCamerasSurvivesUnplugAndResumesAfterRep
   const std::string log = dir_ / "ipsd.log";
   const std::map<std::string, std::string> devices{{"/dev/video-emu0", dir_ / "red.conf"},
                                                    {"/dev/video-emu1", dir_ / "white.conf"}};
-  const pid_t pid = ips::test::spawn_emulated(
-      {std::string(IPS_BINARY_DIR) + "/ipsd", "--config", dir_ / "ipsd.yaml"}, devices, log, log);
+  const pid_t pid = ips::test::spawn_emulated({std::string(IPS_BINARY_DIR) + "/ipsd", "--config", dir_ / "ipsd.yaml"},
+                                              devices, log, log);
   ASSERT_GT(pid, 0);
   const ips::support::ChildGuard stopper(pid);  // never leave the daemon running, whatever fails
 
@@ -148,15 +141,13 @@ TEST_F(IpsdOnEmulatedCameras, StreamsBothCamerasSurvivesUnplugAndResumesAfterRep
       EXPECT_TRUE(m.id == 1 || m.id == 2) << m.id;
       const auto truth = scene_.marker_pose(static_cast<int>(m.id), 0.0);
       EXPECT_LT(std::hypot(m.x - truth.x, m.y - truth.y), 0.03)
-          << "marker " << m.id << " (" << m.x << ", " << m.y << ") cameras 0x" << std::hex
-          << m.camera_mask;
+          << "marker " << m.id << " (" << m.x << ", " << m.y << ") cameras 0x" << std::hex << m.camera_mask;
       EXPECT_NEAR(m.z, m.id == 1 ? 0.15 : 0.10, 1e-6);
       for (int bit : {0, 1}) seen_by[bit] += (m.camera_mask >> bit) & 1;
     }
     return seen_by[0] >= 4 && seen_by[1] >= 4;
   });
-  ASSERT_TRUE(both) << "positions from red: " << seen_by[0] << ", white: " << seen_by[1] << "\n"
-                    << read_text(log);
+  ASSERT_TRUE(both) << "positions from red: " << seen_by[0] << ", white: " << seen_by[1] << "\n" << read_text(log);
 
   // 2. Unplug red (camera 0): white keeps publishing; nothing red captured after the unplug.
   const std::int64_t unplugged = ips::monotonic_ns();
@@ -178,8 +169,7 @@ TEST_F(IpsdOnEmulatedCameras, StreamsBothCamerasSurvivesUnplugAndResumesAfterRep
     // Unplugged for 2 s at least: reopen attempts at +0.5 s and +1.5 s fail (the second quietly).
     return from_white >= 6 && ips::monotonic_ns() - unplugged > 2'000'000'000;
   });
-  EXPECT_TRUE(white_goes_on) << "white stopped publishing when red was unplugged\n"
-                             << read_text(log);
+  EXPECT_TRUE(white_goes_on) << "white stopped publishing when red was unplugged\n" << read_text(log);
   EXPECT_EQ(late_red, 0) << read_text(log);
   std::printf("[ ipsd    ] red unplugged: white's widest gap %.0f ms (frame period %d ms)\n",
               1e-6 * static_cast<double>(widest_gap), 1000 / kFps);
@@ -208,10 +198,8 @@ TEST_F(IpsdOnEmulatedCameras, StreamsBothCamerasSurvivesUnplugAndResumesAfterRep
   std::istringstream lines(text);
   int warnings = 0, attempts_logged = 0;
   for (std::string line; std::getline(lines, line);) {
-    warnings +=
-        line.find("red: ") != std::string::npos && line.find("retrying") != std::string::npos;
-    attempts_logged +=
-        line.find("red: ") != std::string::npos && line.find("is back") != std::string::npos;
+    warnings += line.find("red: ") != std::string::npos && line.find("retrying") != std::string::npos;
+    attempts_logged += line.find("red: ") != std::string::npos && line.find("is back") != std::string::npos;
   }
   EXPECT_EQ(warnings, 2) << text;
   EXPECT_EQ(attempts_logged, 1) << text;

@@ -164,8 +164,7 @@ Config parse_config(const std::string& text, const std::string& path) {
     else
       die(path + ":" + std::to_string(line_no) + ": unknown key '" + key + "'");
   }
-  if (c.formats.empty() || c.sizes.empty() || !(c.fps > 0))
-    die(path + ": needs formats, sizes, fps > 0");
+  if (c.formats.empty() || c.sizes.empty() || !(c.fps > 0)) die(path + ": needs formats, sizes, fps > 0");
   return c;
 }
 
@@ -261,9 +260,7 @@ struct Handle {
   std::vector<std::string> jpegs;
 
   std::int64_t period_ns() const { return static_cast<std::int64_t>(1e9 / fps); }
-  std::int64_t completion_ns(std::uint64_t n) const {
-    return t0_ns + static_cast<std::int64_t>(n + 1) * period_ns();
-  }
+  std::int64_t completion_ns(std::uint64_t n) const { return t0_ns + static_cast<std::int64_t>(n + 1) * period_ns(); }
 };
 
 constexpr int kMaxFd = 65536;
@@ -271,14 +268,11 @@ std::array<std::atomic<bool>, kMaxFd> g_fake{};  // lock-free test for the commo
 std::mutex g_mutex;
 std::map<int, Handle> g_handles;
 
-bool is_fake(int fd) {
-  return fd >= 0 && fd < kMaxFd && g_fake[static_cast<std::size_t>(fd)].load();
-}
+bool is_fake(int fd) { return fd >= 0 && fd < kMaxFd && g_fake[static_cast<std::size_t>(fd)].load(); }
 
 // What S_FMT grants: the pixel format if offered (else the first one), the nearest size.
 v4l2_pix_format granted_format(const Config& c, std::uint32_t pixfmt, Size want) {
-  if (std::find(c.formats.begin(), c.formats.end(), pixfmt) == c.formats.end())
-    pixfmt = c.formats[0];
+  if (std::find(c.formats.begin(), c.formats.end(), pixfmt) == c.formats.end()) pixfmt = c.formats[0];
   Size size = c.sizes[0];
   auto distance = [&](Size s) {
     return std::labs(static_cast<long>(s.w) - want.w) + std::labs(static_cast<long>(s.h) - want.h);
@@ -371,8 +365,7 @@ void fill(Handle& h, std::uint32_t index, std::uint64_t n) {
 // dropped when none is queued.
 void catch_up(Handle& h, std::int64_t now) {
   if (!h.streaming) return;
-  const auto completed =
-      static_cast<std::uint64_t>(std::max<std::int64_t>(0, (now - h.t0_ns) / h.period_ns()));
+  const auto completed = static_cast<std::uint64_t>(std::max<std::int64_t>(0, (now - h.t0_ns) / h.period_ns()));
   while (h.next_frame < completed) {
     const std::uint64_t n = h.next_frame++;
     if (every(n, h.device->config.drop_every)) continue;
@@ -492,8 +485,7 @@ int handle_ioctl(Handle& h, unsigned long request, void* arg, std::int64_t& wait
       auto* b = static_cast<v4l2_buffer*>(arg);
       if (b->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || b->index >= h.buffers.size()) return EINVAL;
       if (request == VIDIOC_QBUF) {
-        if (b->memory != V4L2_MEMORY_MMAP || h.buffers[b->index].state != Buffer::kIdle)
-          return EINVAL;
+        if (b->memory != V4L2_MEMORY_MMAP || h.buffers[b->index].state != Buffer::kIdle) return EINVAL;
         h.buffers[b->index].state = Buffer::kQueued;
         h.queued.push_back(b->index);
       }
@@ -541,8 +533,7 @@ int handle_ioctl(Handle& h, unsigned long request, void* arg, std::int64_t& wait
     case VIDIOC_S_CTRL: {
       // v4l2_queryctrl and v4l2_control both start with the control id.
       const std::uint32_t id = *static_cast<std::uint32_t*>(arg);
-      const auto it = std::find_if(kControls.begin(), kControls.end(),
-                                   [&](const Control& k) { return k.id == id; });
+      const auto it = std::find_if(kControls.begin(), kControls.end(), [&](const Control& k) { return k.id == id; });
       if (it == kControls.end() ||
           std::count(c.unsupported_controls.begin(), c.unsupported_controls.end(), it->name) > 0)
         return EINVAL;
@@ -570,8 +561,7 @@ int handle_ioctl(Handle& h, unsigned long request, void* arg, std::int64_t& wait
       h.controls[it->id] = std::clamp(ctrl->value, it->min, it->max);
       return 0;
     }
-    default:
-      return ENOTTY;
+    default: return ENOTTY;
   }
 }
 
@@ -647,8 +637,7 @@ int openat(int dirfd, const char* path, int flags, ...) {
   va_start(ap, flags);
   const mode_t mode = mode_arg(flags, ap);
   va_end(ap);
-  if (Device* d = (dirfd == AT_FDCWD || path[0] == '/') ? find_device(path) : nullptr)
-    return open_fake(*d, flags);
+  if (Device* d = (dirfd == AT_FDCWD || path[0] == '/') ? find_device(path) : nullptr) return open_fake(*d, flags);
   return real_openat(dirfd, path, flags, mode);
 }
 
@@ -658,8 +647,7 @@ int openat64(int dirfd, const char* path, int flags, ...) {
   va_start(ap, flags);
   const mode_t mode = mode_arg(flags, ap);
   va_end(ap);
-  if (Device* d = (dirfd == AT_FDCWD || path[0] == '/') ? find_device(path) : nullptr)
-    return open_fake(*d, flags);
+  if (Device* d = (dirfd == AT_FDCWD || path[0] == '/') ? find_device(path) : nullptr) return open_fake(*d, flags);
   return real_openat64(dirfd, path, flags, mode);
 }
 
@@ -721,10 +709,9 @@ void* mmap(void* addr, size_t length, int prot, int flags, int fd, off_t offset)
   {
     std::lock_guard lock(g_mutex);
     auto it = g_handles.find(fd);
-    if (it != g_handles.end() && it->second.device->config.present && it->second.stride > 0 &&
-        offset >= 0 && static_cast<std::size_t>(offset) % it->second.stride == 0 &&
-        static_cast<std::size_t>(offset) / it->second.stride < it->second.buffers.size() &&
-        length <= it->second.stride)
+    if (it != g_handles.end() && it->second.device->config.present && it->second.stride > 0 && offset >= 0 &&
+        static_cast<std::size_t>(offset) % it->second.stride == 0 &&
+        static_cast<std::size_t>(offset) / it->second.stride < it->second.buffers.size() && length <= it->second.stride)
       memfd = it->second.memfd;
   }
   if (memfd < 0) {
@@ -775,13 +762,11 @@ int poll(struct pollfd* fds, nfds_t nfds, int timeout_ms) {
   }
 }
 
-int select(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds,
-           struct timeval* timeout) {
+int select(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds, struct timeval* timeout) {
   REAL(select);
   bool any_fake = false;
   for (int fd = 0; fd < nfds && !any_fake; ++fd)
-    any_fake = is_fake(fd) &&
-               ((readfds && FD_ISSET(fd, readfds)) || (exceptfds && FD_ISSET(fd, exceptfds)));
+    any_fake = is_fake(fd) && ((readfds && FD_ISSET(fd, readfds)) || (exceptfds && FD_ISSET(fd, exceptfds)));
   if (!any_fake) return real_select(nfds, readfds, writefds, exceptfds, timeout);
   std::vector<pollfd> p;
   for (int fd = 0; fd < nfds; ++fd) {

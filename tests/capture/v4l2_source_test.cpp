@@ -21,8 +21,7 @@ cv::Mat card(int w, int h, int k) {
   cv::Mat img(h, w, CV_8UC1);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      img.at<uchar>(y, x) =
-          static_cast<uchar>(30 + 40 * k + ((x / 8 + y / 8) % 2) * 60 + (x * 40) / w);
+      img.at<uchar>(y, x) = static_cast<uchar>(30 + 40 * k + ((x / 8 + y / 8) % 2) * 60 + (x * 40) / w);
   return img;
 }
 
@@ -37,8 +36,7 @@ class EmulatedCamera : public ::testing::Test {
   void write_frames(int w, int h, int n = 4) {
     for (int k = 0; k < n; ++k) {
       cards_.push_back(card(w, h, k));
-      cv::imwrite(dir_ / ("frames/f" + std::to_string(k) + ".jpg"), cards_.back(),
-                  {cv::IMWRITE_JPEG_QUALITY, 95});
+      cv::imwrite(dir_ / ("frames/f" + std::to_string(k) + ".jpg"), cards_.back(), {cv::IMWRITE_JPEG_QUALITY, 95});
     }
   }
 
@@ -68,9 +66,8 @@ struct FrameLine {
 std::vector<FrameLine> parse_frames(const std::string& out) {
   std::vector<FrameLine> frames;
   for (const auto& l : lines_starting(out, "frame "))
-    frames.push_back({std::stoull(field(l, "seq")), std::stoll(field(l, "mono")),
-                      std::stoll(field(l, "real")), std::stoll(field(l, "read_mono")),
-                      std::stoll(field(l, "offset")), std::stoi(field(l, "width")),
+    frames.push_back({std::stoull(field(l, "seq")), std::stoll(field(l, "mono")), std::stoll(field(l, "real")),
+                      std::stoll(field(l, "read_mono")), std::stoll(field(l, "offset")), std::stoi(field(l, "width")),
                       std::stoi(field(l, "height"))});
   return frames;
 }
@@ -82,9 +79,7 @@ std::uint64_t stat_of(const std::string& out, const std::string& key) {
 
 // The emulator itself behaves like a V4L2 driver (else the other tests prove little).
 TEST_F(EmulatedCamera, EmulatorFollowsV4l2BufferSemantics) {
-  configure({{"formats", "YUYV"},
-             {"sizes", "160x120"},
-             {"fps", "2"}});  // first frame 0.5 s after STREAMON
+  configure({{"formats", "YUYV"}, {"sizes", "160x120"}, {"fps", "2"}});  // first frame 0.5 s after STREAMON
   const auto r = run({"raw", "--device", kDevice});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("poll_before_streamon=POLLERR\n"), std::string::npos) << r.out;
@@ -105,8 +100,8 @@ TEST_F(EmulatedCamera, EmulatorFollowsV4l2BufferSemantics) {
 TEST_F(EmulatedCamera, MjpegFramesCarrySizeSequenceAndDriverTimestamps) {
   write_frames(640, 480);
   configure({{"sizes", "1920x1080,640x480"}});
-  const auto r = run({"capture", "--device", kDevice, "--width", "640", "--height", "480", "--fps",
-                      "100", "--frames", "12", "--dump-dir", dir_.str()});
+  const auto r = run({"capture", "--device", kDevice, "--width", "640", "--height", "480", "--fps", "100", "--frames",
+                      "12", "--dump-dir", dir_.str()});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto granted = lines_starting(r.out, "granted ");
   ASSERT_EQ(granted.size(), 1u);
@@ -130,12 +125,10 @@ TEST_F(EmulatedCamera, MjpegFramesCarrySizeSequenceAndDriverTimestamps) {
       ASSERT_GT(f.seq, p.seq);
       gaps += f.seq - p.seq - 1;
       // The emulator's frame n completes at t0 + (n+1) * 10 ms; V4L2 carries microseconds.
-      EXPECT_NEAR(static_cast<double>(f.mono - p.mono), 10e6 * static_cast<double>(f.seq - p.seq),
-                  1e3);
+      EXPECT_NEAR(static_cast<double>(f.mono - p.mono), 10e6 * static_cast<double>(f.seq - p.seq), 1e3);
     }
     // The pixels are the card the emulator served for this sequence number.
-    const cv::Mat got =
-        cv::imread(dir_ / ("frame_" + std::to_string(f.seq) + ".png"), cv::IMREAD_GRAYSCALE);
+    const cv::Mat got = cv::imread(dir_ / ("frame_" + std::to_string(f.seq) + ".png"), cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(got.empty());
     cv::Mat diff;
     cv::absdiff(got, cards_[f.seq % cards_.size()], diff);
@@ -149,21 +142,19 @@ TEST_F(EmulatedCamera, MjpegFramesCarrySizeSequenceAndDriverTimestamps) {
 TEST_F(EmulatedCamera, FallsBackToYuyvAndTakesTheLumaPlane) {
   // No MJPEG; padded lines so that bytesperline != 2 * width.
   configure({{"formats", "YUYV"}, {"sizes", "320x240"}, {"yuyv_padding", "64"}});
-  const auto r = run({"capture", "--device", kDevice, "--width", "320", "--height", "240",
-                      "--frames", "3", "--dump-dir", dir_.str()});
+  const auto r = run(
+      {"capture", "--device", kDevice, "--width", "320", "--height", "240", "--frames", "3", "--dump-dir", dir_.str()});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_EQ(field(lines_starting(r.out, "granted ").at(0), "format"), "YUYV");
   EXPECT_NE(r.err.find("MJPEG not offered, falling back to YUYV"), std::string::npos) << r.err;
   const auto frames = parse_frames(r.out);
   ASSERT_EQ(frames.size(), 3u);
   for (const auto& f : frames) {
-    const cv::Mat got =
-        cv::imread(dir_ / ("frame_" + std::to_string(f.seq) + ".png"), cv::IMREAD_GRAYSCALE);
+    const cv::Mat got = cv::imread(dir_ / ("frame_" + std::to_string(f.seq) + ".png"), cv::IMREAD_GRAYSCALE);
     ASSERT_EQ(got.size(), cv::Size(320, 240));
     int wrong = 0;
     for (int y = 0; y < got.rows; ++y)
-      for (int x = 0; x < got.cols; ++x)
-        wrong += got.at<uchar>(y, x) != static_cast<uchar>((x + 2 * y + f.seq) & 255);
+      for (int x = 0; x < got.cols; ++x) wrong += got.at<uchar>(y, x) != static_cast<uchar>((x + 2 * y + f.seq) & 255);
     EXPECT_EQ(wrong, 0) << "frame " << f.seq;
   }
 }
@@ -171,14 +162,13 @@ TEST_F(EmulatedCamera, FallsBackToYuyvAndTakesTheLumaPlane) {
 TEST_F(EmulatedCamera, ReportsTheSizeTheDeviceGranted) {
   write_frames(640, 480, 2);
   configure({{"grant", "640x480"}});
-  const auto r = run({"capture", "--device", kDevice, "--width", "1920", "--height", "1080",
-                      "--frames", "2", "--scale", "2"});
+  const auto r =
+      run({"capture", "--device", kDevice, "--width", "1920", "--height", "1080", "--frames", "2", "--scale", "2"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto granted = lines_starting(r.out, "granted ").at(0);
   EXPECT_EQ(field(granted, "width"), "640");
   EXPECT_EQ(field(granted, "height"), "480");
-  EXPECT_NE(r.err.find("asked for 1920x1080, the device granted 640x480"), std::string::npos)
-      << r.err;
+  EXPECT_NE(r.err.find("asked for 1920x1080, the device granted 640x480"), std::string::npos) << r.err;
   for (const auto& f : parse_frames(r.out)) {  // decoded at half scale in the DCT domain
     EXPECT_EQ(f.width, 320);
     EXPECT_EQ(f.height, 240);
@@ -188,8 +178,7 @@ TEST_F(EmulatedCamera, ReportsTheSizeTheDeviceGranted) {
 TEST_F(EmulatedCamera, CorruptJpegsAreSkippedAndCounted) {
   write_frames(320, 240);
   configure({{"sizes", "320x240"}, {"corrupt_every", "3"}});
-  const auto r =
-      run({"capture", "--device", kDevice, "--width", "320", "--height", "240", "--frames", "10"});
+  const auto r = run({"capture", "--device", kDevice, "--width", "320", "--height", "240", "--frames", "10"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto frames = parse_frames(r.out);
   ASSERT_EQ(frames.size(), 10u);
@@ -203,8 +192,7 @@ TEST_F(EmulatedCamera, CorruptJpegsAreSkippedAndCounted) {
 
 TEST_F(EmulatedCamera, SequenceGapsCountAsDriverDrops) {
   configure({{"formats", "YUYV"}, {"sizes", "160x120"}, {"drop_every", "4"}});
-  const auto r =
-      run({"capture", "--device", kDevice, "--width", "160", "--height", "120", "--frames", "9"});
+  const auto r = run({"capture", "--device", kDevice, "--width", "160", "--height", "120", "--frames", "9"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto frames = parse_frames(r.out);
   ASSERT_EQ(frames.size(), 9u);
@@ -216,24 +204,21 @@ TEST_F(EmulatedCamera, SequenceGapsCountAsDriverDrops) {
 TEST_F(EmulatedCamera, ControlsAreSetAndAdjustmentsReported) {
   configure({{"formats", "YUYV"}, {"sizes", "160x120"}});
   // 0.5 s exceeds the device's maximum 2047 x 100 us; gain 300 exceeds 255.
-  const auto r =
-      run({"capture", "--device", kDevice, "--width", "160", "--height", "120", "--frames", "1",
-           "--exposure", "0.5", "--gain", "300", "--autofocus", "0", "--power-line", "50"});
+  const auto r = run({"capture", "--device", kDevice, "--width", "160", "--height", "120", "--frames", "1",
+                      "--exposure", "0.5", "--gain", "300", "--autofocus", "0", "--power-line", "50"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto granted = lines_starting(r.out, "granted ").at(0);
   EXPECT_EQ(field(granted, "exposure_s"), "0.2047");
   EXPECT_EQ(field(granted, "gain"), "255");
   EXPECT_EQ(field(granted, "autofocus"), "0");
   EXPECT_EQ(field(granted, "power_line_hz"), "50");
-  EXPECT_NE(r.err.find("control gain: asked for 300, the device set 255"), std::string::npos)
-      << r.err;
+  EXPECT_NE(r.err.find("control gain: asked for 300, the device set 255"), std::string::npos) << r.err;
 }
 
 TEST_F(EmulatedCamera, UnsupportedControlIsAWarningNotAnError) {
-  configure(
-      {{"formats", "YUYV"}, {"sizes", "160x120"}, {"unsupported_controls", "gain,focus_auto"}});
-  const auto r = run({"capture", "--device", kDevice, "--width", "160", "--height", "120",
-                      "--frames", "1", "--gain", "10", "--autofocus", "0", "--exposure", "0.01"});
+  configure({{"formats", "YUYV"}, {"sizes", "160x120"}, {"unsupported_controls", "gain,focus_auto"}});
+  const auto r = run({"capture", "--device", kDevice, "--width", "160", "--height", "120", "--frames", "1", "--gain",
+                      "10", "--autofocus", "0", "--exposure", "0.01"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto granted = lines_starting(r.out, "granted ").at(0);
   EXPECT_EQ(field(granted, "gain"), "");
@@ -244,8 +229,8 @@ TEST_F(EmulatedCamera, UnsupportedControlIsAWarningNotAnError) {
 
 TEST_F(EmulatedCamera, UnplugThrowsSourceErrorAndReplugReopensWithoutLeaks) {
   configure({{"formats", "YUYV"}, {"sizes", "160x120"}, {"fps", "200"}});
-  const auto r = run({"unplug", "--device", kDevice, "--width", "160", "--height", "120",
-                      "--control", control_, "--cycles", "100"});
+  const auto r = run(
+      {"unplug", "--device", kDevice, "--width", "160", "--height", "120", "--control", control_, "--cycles", "100"});
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto line = [&](const std::string& key) {
     const auto l = lines_starting(r.out, key + "=");
@@ -253,9 +238,7 @@ TEST_F(EmulatedCamera, UnplugThrowsSourceErrorAndReplugReopensWithoutLeaks) {
   };
   EXPECT_NE(field(line("read_error"), "read_error").find("unplugged"), std::string::npos) << r.out;
   EXPECT_EQ(field(line("read_error"), "open_after"), "0");  // read() closed it before throwing
-  EXPECT_NE(field(line("open_error"), "open_error").find("No such file or directory"),
-            std::string::npos)
-      << r.out;
+  EXPECT_NE(field(line("open_error"), "open_error").find("No such file or directory"), std::string::npos) << r.out;
   EXPECT_EQ(field(line("replugged_frames"), "opens"), "101");
   // While streaming: the emulator's own view of the buffers + the 4 mmap'ed by the source.
   EXPECT_EQ(field(line("maps_open"), "maps_open"), "5");
@@ -270,12 +253,11 @@ TEST_F(EmulatedCamera, UnpluggingOneCameraLeavesTheOtherStreaming) {
   write_frames(320, 240, 2);
   configure({{"sizes", "320x240"}});
   const std::string control1 = dir_ / "cam1.conf";
-  ips::test::write_emu_control(control1,
-                               {{"formats", "YUYV"}, {"sizes", "320x240"}, {"fps", "100"}});
-  const auto r = ips::test::run_emulated(
-      {IPS_CAPTURE_DRIVER, "two", "--device", kDevice, "--device2", "/dev/video-emu1", "--width",
-       "320", "--height", "240", "--control", control_},
-      {{kDevice, control_}, {"/dev/video-emu1", control1}}, dir_.str());
+  ips::test::write_emu_control(control1, {{"formats", "YUYV"}, {"sizes", "320x240"}, {"fps", "100"}});
+  const auto r =
+      ips::test::run_emulated({IPS_CAPTURE_DRIVER, "two", "--device", kDevice, "--device2", "/dev/video-emu1",
+                               "--width", "320", "--height", "240", "--control", control_},
+                              {{kDevice, control_}, {"/dev/video-emu1", control1}}, dir_.str());
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   const auto during = lines_starting(r.out, "during_unplug ");
   ASSERT_EQ(during.size(), 1u) << r.out;

@@ -26,18 +26,18 @@ constexpr double kPlaces[3][4] = {{2.30, 1.00, 0.00, 0}, {2.00, 1.30, 0.10, 45},
 class CollectCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("ips_collect_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("ips_collect_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     std::string points;
     for (const auto& p : kPlaces)
-      points += std::string(points.empty() ? "" : ", ") + "[" + std::to_string(p[0]) + ", " +
-                std::to_string(p[1]) + ", " + std::to_string(p[2]) + ", " + std::to_string(p[3]) + "]";
+      points += std::string(points.empty() ? "" : ", ") + "[" + std::to_string(p[0]) + ", " + std::to_string(p[1]) +
+                ", " + std::to_string(p[2]) + ", " + std::to_string(p[3]) + "]";
     std::ofstream(dir_ / "scene.yaml") << test::published_scene_with(
         "markers:\n  - {id: 0, length: 0.20, trajectory: {type: placements, control: "
-        "placement.txt, points: [" + points + "]}}\n");
+        "placement.txt, points: [" +
+        points + "]}}\n");
     std::ofstream(dir_ / "moving.yaml") << test::published_scene_with(
         "markers:\n  - {id: 0, length: 0.20, trajectory: {type: circle, center: [2.3, 1.0], "
         "radius: 0.3, speed: 0.5}}\n");
@@ -51,8 +51,8 @@ class CollectCli : public ::testing::Test {
   }
   std::vector<std::string> collect(const std::string& config, const std::vector<std::string>& extra = {}) const {
     std::vector<std::string> argv = {test::bin("ips"), "collect", "--config", (dir_ / config).string(),
-                                     "--marker", "0", "--out", (dir_ / "pairs.csv").string(),
-                                     "--frames", "3"};
+                                     "--marker",       "0",       "--out",    (dir_ / "pairs.csv").string(),
+                                     "--frames",       "3"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     return argv;
   }
@@ -74,8 +74,7 @@ TEST_F(CollectCli, TypingErrorsAreAskedAgainAndUndoRemovesAPlacement) {
     s.type(line);
     ASSERT_TRUE(s.wait_prompt(++prompt)) << "after '" << line << "':\n" << s.output();
   };
-  for (const char* bad : {"1,2", "abc", "1 2", "2.3 1.0 9", "nan 1 0", "d 1 2 0", "", "u", "s", "?"})
-    type(bad);
+  for (const char* bad : {"1,2", "abc", "1 2", "2.3 1.0 9", "nan 1 0", "d 1 2 0", "", "u", "s", "?"}) type(bad);
   type("2.30 1.00 0.00");
   type("u");
   place(1);
@@ -85,10 +84,10 @@ TEST_F(CollectCli, TypingErrorsAreAskedAgainAndUndoRemovesAPlacement) {
   EXPECT_EQ(*status, 0) << s.output();
   const std::string out = s.output();
   for (const char* expected :
-       {"use spaces between the numbers, not commas", "'abc' is neither a position nor a command", "expected 3 numbers, got 2",
-        "z (height) 9 m is out of range", "'nan' is not a number",
-        "distances need the reference points", "type the marker's position", "nothing to undo",
-        "nothing to skip", "recorded placement 1 at x 2.300  y 1.000  z 0.000 m; pairs red 1",
+       {"use spaces between the numbers, not commas", "'abc' is neither a position nor a command",
+        "expected 3 numbers, got 2", "z (height) 9 m is out of range", "'nan' is not a number",
+        "distances need the reference points", "type the marker's position", "nothing to undo", "nothing to skip",
+        "recorded placement 1 at x 2.300  y 1.000  z 0.000 m; pairs red 1",
         "undone: the placement at x 2.300  y 1.000  z 0.000 m (red); pairs red 0",
         "recorded placement 1 at x 2.000  y 1.300  z 0.100 m", "red        seen in  3/3  frames"})
     EXPECT_NE(out.find(expected), std::string::npos) << expected << "\n" << out;
@@ -106,8 +105,7 @@ TEST_F(CollectCli, ResumesRefusesWhatItCannotSeeAndTakesTapeDistances) {
   // A file from an earlier session: one placement seen by red.
   std::ofstream(dir_ / "pairs.csv") << "camera,xc,yc,zc,xw,yw,zw\nred,0.01,-0.07,2.1,2.3,1,0\n";
   place(-1);  // the marker is not on the floor
-  test::CollectSession s(collect("scene.ipsd.yaml", {"--ref-a", "0", "0", "--ref-b", "4.88", "0"}),
-                         dir_ / "log.txt");
+  test::CollectSession s(collect("scene.ipsd.yaml", {"--ref-a", "0", "0", "--ref-b", "4.88", "0"}), dir_ / "log.txt");
   ASSERT_TRUE(s.wait_prompt(1)) << s.output();
   EXPECT_NE(s.output().find("(resumed: 1 placement(s); pairs red 1)"), std::string::npos) << s.output();
   s.type("2.3 1.0 0");
@@ -125,8 +123,7 @@ TEST_F(CollectCli, ResumesRefusesWhatItCannotSeeAndTakesTapeDistances) {
       << s.output();
   s.type(d + " left");
   ASSERT_TRUE(s.wait_prompt(4)) << s.output();
-  EXPECT_NE(s.output().find("from the distances: x 2.800  y 0.700  z 0.050 m (left, as typed)"),
-            std::string::npos)
+  EXPECT_NE(s.output().find("from the distances: x 2.800  y 0.700  z 0.050 m (left, as typed)"), std::string::npos)
       << s.output();
   EXPECT_NE(s.output().find("recorded placement 2"), std::string::npos) << s.output();
   s.type("u");
@@ -146,8 +143,7 @@ TEST_F(CollectCli, WalksThroughAListOfPositions) {
                                    << kPlaces[1][0] << "," << kPlaces[1][1] << "," << kPlaces[1][2] << "\n"
                                    << kPlaces[2][0] << "," << kPlaces[2][1] << "," << kPlaces[2][2] << "\n";
   place(0);
-  test::CollectSession s(collect("scene.ipsd.yaml", {"--points", (dir_ / "list.csv").string()}),
-                         dir_ / "log.txt");
+  test::CollectSession s(collect("scene.ipsd.yaml", {"--points", (dir_ / "list.csv").string()}), dir_ / "log.txt");
   ASSERT_TRUE(s.wait_prompt(1)) << s.output();
   EXPECT_NE(s.output().find("put the marker at x 2.300  y 1.000  z 0.000 m (listed 1/3)"), std::string::npos)
       << s.output();
@@ -156,7 +152,7 @@ TEST_F(CollectCli, WalksThroughAListOfPositions) {
   s.type("s");  // skip the second
   ASSERT_TRUE(s.wait_prompt(3)) << s.output();
   place(2);
-  s.type("2.81 0.70 0.05");  // as measured, a centimetre off the list
+  s.type("2.81 0.70 0.05");        // as measured, a centimetre off the list
   const auto status = s.finish();  // the list is done: it ends by itself
   ASSERT_TRUE(status.has_value()) << s.output();
   EXPECT_EQ(*status, 0) << s.output();
@@ -173,8 +169,8 @@ TEST_F(CollectCli, WalksThroughAListOfPositions) {
 // marker at place 1 rendered by `ips sim render`, the red camera's intrinsics from the config.
 TEST_F(CollectCli, WorksOnAFileSource) {
   place(1);
-  ASSERT_EQ(test::run({test::bin("ips"), "sim", "render", "--scene", (dir_ / "scene.yaml").string(), "--camera",
-                       "red", "--frames", "2", "--out", (dir_ / "frames").string()},
+  ASSERT_EQ(test::run({test::bin("ips"), "sim", "render", "--scene", (dir_ / "scene.yaml").string(), "--camera", "red",
+                       "--frames", "2", "--out", (dir_ / "frames").string()},
                       dir_ / "render.log"),
             0)
       << test::read_file(dir_ / "render.log");
@@ -222,8 +218,8 @@ TEST_F(CollectCli, BadOptionsExitTwoAndWriteNothing) {
       {collect("scene.ipsd.yaml", {"--frames", "0"}), "--frames"},
       {collect("scene.ipsd.yaml", {"--ref-a", "0", "0"}), "--ref-b"},
       {collect("scene.ipsd.yaml", {"--points", (dir_ / "none.csv").string()}), "none.csv"},
-      {{test::bin("ips"), "collect", "--config", (dir_ / "scene.ipsd.yaml").string(), "--marker", "0",
-        "--out", (dir_ / "no/such/dir/pairs.csv").string()},
+      {{test::bin("ips"), "collect", "--config", (dir_ / "scene.ipsd.yaml").string(), "--marker", "0", "--out",
+        (dir_ / "no/such/dir/pairs.csv").string()},
        "no such directory"},
   };
   for (const auto& c : cases) {

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/mapping/calib_data.h"
 #include "ips/collect/collect.h"
 #include "ips/core/error.h"
+#include "ips/mapping/calib_data.h"
 
 namespace ips::collect {
 namespace {
@@ -118,7 +118,7 @@ TEST(CollectSide, TheCameraThatSeesItTellsTheSide) {
   std::string how;
   const std::vector<std::pair<std::string, Eigen::Vector3d>> seen_right = {{"red", cam_of({3, -4, 0})}};
   for (const Eigen::Vector3d& w : {Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(3, 1, 0.1), Eigen::Vector3d(2, 3, 0),
-                                  Eigen::Vector3d(0.5, 2.5, 0.2)}) {
+                                   Eigen::Vector3d(0.5, 2.5, 0.2)}) {
     EXPECT_EQ(side_from_cameras(pairs, seen_right, candidates, how), -1);  // fewer than 4 pairs
     pairs.add({w, {{"red", cam_of(w)}, {"white", Eigen::Vector3d(0, 0, 2)}}});
   }

@@ -7,9 +7,9 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <optional>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -20,8 +20,7 @@ namespace ips::test {
 
 class CollectSession {
  public:
-  CollectSession(const std::vector<std::string>& argv, const std::filesystem::path& log)
-      : log_(log) {
+  CollectSession(const std::vector<std::string>& argv, const std::filesystem::path& log) : log_(log) {
     ::signal(SIGPIPE, SIG_IGN);  // a session that ended must fail the test, not kill it
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) return;
@@ -57,8 +56,7 @@ class CollectSession {
   }
   /// Waits (up to `seconds`, scaled for the sanitizers) for prompt number `n`.
   bool wait_prompt(int n, double seconds = 60) const {
-    const auto end = std::chrono::steady_clock::now() +
-                     std::chrono::duration<double>(seconds * kTimeScale);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds * kTimeScale);
     while (std::chrono::steady_clock::now() < end) {
       if (prompts() >= n) return true;
       if (exited(std::chrono::milliseconds(0))) return prompts() >= n;

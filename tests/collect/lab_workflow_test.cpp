@@ -7,10 +7,10 @@
 // under the sanitizers a small variant checks the same chain with a looser bound.
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <random>
 #include <string>
 
@@ -102,15 +102,15 @@ TEST(LabWorkflow, CalibrateCollectFitThenIpsdIsWithinOneCentimetre) {
     points += buf;
   }
   std::ofstream(dir / "lab.yaml") << test::published_scene_with(
-      "markers:\n  - {id: 0, length: 0.20, trajectory: {type: placements, control: placement.txt, points: [" +
-      points + "]}}\n");
+      "markers:\n  - {id: 0, length: 0.20, trajectory: {type: placements, control: placement.txt, points: [" + points +
+      "]}}\n");
 
   // ---- INTRINSICS STEP: 30 board views per camera -> `ips calibrate` -> INTR.yaml.
   std::map<std::string, fs::path> intrinsics;
   for (const std::string name : kCameras) {
     const fs::path views_dir = dir / ("views_" + name), intr = dir / ("intrinsics_" + name + ".yaml");
-    ASSERT_EQ(test::run({test::bin("ips"), "sim", "board-views", "--scene", (dir / "lab.yaml").string(),
-                         "--camera", name, "--views", std::to_string(kViews), "--out", views_dir.string()},
+    ASSERT_EQ(test::run({test::bin("ips"), "sim", "board-views", "--scene", (dir / "lab.yaml").string(), "--camera",
+                         name, "--views", std::to_string(kViews), "--out", views_dir.string()},
                         log, std::chrono::seconds(static_cast<long>(600 * test::kTimeScale))),
               0)
         << test::read_file(log);
@@ -135,9 +135,9 @@ TEST(LabWorkflow, CalibrateCollectFitThenIpsdIsWithinOneCentimetre) {
 
   // ---- `ips collect`: place, type, wait for the next prompt; repeat.
   {
-    test::CollectSession s({test::bin("ips"), "collect", "--config", (dir / "collect.yaml").string(), "--marker",
-                            "0", "--out", (dir / "pairs.csv").string(), "--frames", std::to_string(kFrames),
-                            "--ref-a", "0", "0", "--ref-b", "4.88", "0"},
+    test::CollectSession s({test::bin("ips"), "collect", "--config", (dir / "collect.yaml").string(), "--marker", "0",
+                            "--out", (dir / "pairs.csv").string(), "--frames", std::to_string(kFrames), "--ref-a", "0",
+                            "0", "--ref-b", "4.88", "0"},
                            dir / "collect.log");
     ASSERT_TRUE(s.wait_prompt(1, 120)) << s.output();
     for (std::size_t k = 0; k < places.size(); ++k) {
@@ -165,8 +165,8 @@ TEST(LabWorkflow, CalibrateCollectFitThenIpsdIsWithinOneCentimetre) {
   }
 
   // ---- `ips fit --method plane`.
-  ASSERT_EQ(test::run({test::bin("ips"), "fit", "--data", (dir / "pairs.csv").string(), "--method", "plane",
-                       "--out", (dir / "model.json").string()},
+  ASSERT_EQ(test::run({test::bin("ips"), "fit", "--data", (dir / "pairs.csv").string(), "--method", "plane", "--out",
+                       (dir / "model.json").string()},
                       log),
             0)
       << test::read_file(log);
@@ -183,10 +183,9 @@ TEST(LabWorkflow, CalibrateCollectFitThenIpsdIsWithinOneCentimetre) {
   }
   std::ofstream(dir / "run.yaml") << test::published_scene_with(markers);
   test::UdpReceiver rx;
-  std::ofstream(dir / "ipsd.yaml") << config(
-      "run.yaml", 4,
-      ids + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(rx.port) +
-          ", format: binary}\n");
+  std::ofstream(dir / "ipsd.yaml") << config("run.yaml", 4,
+                                             ids + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " +
+                                                 std::to_string(rx.port) + ", format: binary}\n");
   const pid_t pid = test::spawn({test::bin("ipsd"), "--config", (dir / "ipsd.yaml").string()}, dir / "ipsd.log");
   const test::ChildGuard guard(pid);
   const sim::Scene run_scene = sim::Scene::load(dir / "run.yaml");

@@ -5,8 +5,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/core/error.h"
 #include "config_scratch.h"
+#include "ips/core/error.h"
 
 namespace ips {
 namespace {
@@ -101,7 +101,8 @@ detection:
 TEST_F(ConfigTest, DetectionTrackingKeys) {
   EXPECT_EQ(parse(kMinimal).tracking, TrackerOptions{});  // on, full search every 6 frames
   EXPECT_TRUE(TrackerOptions{}.enabled);
-  const DaemonConfig c = parse(std::string(kMinimal) + "detection: {tracking: false, full_search_period: 3, roi_margin: 1.5}\n");
+  const DaemonConfig c =
+      parse(std::string(kMinimal) + "detection: {tracking: false, full_search_period: 3, roi_margin: 1.5}\n");
   EXPECT_FALSE(c.tracking.enabled);
   EXPECT_EQ(c.tracking.full_search_period, 3);
   EXPECT_DOUBLE_EQ(c.tracking.roi_margin, 1.5);
@@ -115,14 +116,17 @@ TEST_F(ConfigTest, BadDetectionSettingsAndDictionaryNamesAreRefusedWithTheirPlac
   const std::string m = kMinimal;
   expect_error(m + "markers: {dictionary: DICT_4x4_100}\n",
                {"ipsd.yaml:7:23: markers.dictionary: unknown ArUco dictionary 'DICT_4x4_100'", "DICT_4X4_100"});
-  expect_error(m + "detection: {threshold_windows: [9, 10]}\n", {"ipsd.yaml:7:", "detection.threshold_windows[1]: window sizes must be odd"});
+  expect_error(m + "detection: {threshold_windows: [9, 10]}\n",
+               {"ipsd.yaml:7:", "detection.threshold_windows[1]: window sizes must be odd"});
   expect_error(m + "detection: {threshold_windows: []}\n", {"detection.threshold_windows: expected a non-empty list"});
   expect_error(m + "detection: {threshold_windows: 9}\n", {"detection.threshold_windows: expected a non-empty list"});
   expect_error(m + "detection: {detect_scale: 9}\n", {"detection.detect_scale: must be 0..8"});
   expect_error(m + "detection: {min_marker_px: -1}\n", {"ipsd.yaml:7:", "detection.min_marker_px: must be 0..100000"});
-  expect_error(m + "detection: {min_marker_px: 20, min_perimeter_px: 80}\n", {"detection.min_perimeter_px: give min_marker_px only"});
+  expect_error(m + "detection: {min_marker_px: 20, min_perimeter_px: 80}\n",
+               {"detection.min_perimeter_px: give min_marker_px only"});
   expect_error(m + "detection: {min_clear_margin: 0}\n", {"detection.min_clear_margin: must be 1..64"});
-  expect_error(m + "detection: {refinement: cornersubpix}\n", {"detection.refinement: unknown value 'cornersubpix' (edges|subpix|none)"});
+  expect_error(m + "detection: {refinement: cornersubpix}\n",
+               {"detection.refinement: unknown value 'cornersubpix' (edges|subpix|none)"});
   expect_error(m + "detection: {min_perimeter_px: -5}\n", {"detection.min_perimeter_px: must be > 0"});
   expect_error(m + "detection: {error_correction_rate: 1.5}\n", {"detection.error_correction_rate: must be 0..1"});
   expect_error(m + "detection: {min_contrast: lots}\n", {"detection.min_contrast: expected a number, got 'lots'"});
@@ -216,17 +220,21 @@ watchdog: {stall_timeout: 3}
 TEST_F(ConfigTest, ModelFileMayBeMissingForCollect) {
   const std::string m = kMinimal;
   const std::string text = std::string(kMinimal).replace(m.find("model.json"), 10, "later.json");
-  const DaemonConfig c = parse_config(text, dir_ / "ipsd.yaml", ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
+  const DaemonConfig c =
+      parse_config(text, dir_ / "ipsd.yaml", ConfigChecks{.intrinsics_exist = true, .model_file_exists = false});
   EXPECT_EQ(c.model_file, dir_ / "later.json");
   expect_error(text, {"model_file: no such file"});  // the daemon still needs it
   const std::string empty = std::string(kMinimal).replace(m.find("model.json"), 10, "\"\"");
-  EXPECT_THROW(parse_config(empty, dir_ / "ipsd.yaml", ConfigChecks{.intrinsics_exist = true, .model_file_exists = false}), InputError);
+  EXPECT_THROW(
+      parse_config(empty, dir_ / "ipsd.yaml", ConfigChecks{.intrinsics_exist = true, .model_file_exists = false}),
+      InputError);
 }
 
 TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
   std::string m = kMinimal;
   expect_error(m + "colour: red\n", {"ipsd.yaml:7:1: colour: unknown key"});
-  expect_error(std::string(kMinimal).replace(m.find("    intrinsics"), 0, "    fsp: 30\n"), {"ipsd.yaml:5:5: cameras[0].fsp: unknown key"});
+  expect_error(std::string(kMinimal).replace(m.find("    intrinsics"), 0, "    fsp: 30\n"),
+               {"ipsd.yaml:5:5: cameras[0].fsp: unknown key"});
   expect_error(m + "fusion: {method: average}\n", {"fusion.method: unknown method 'average' (mean|area|gauss|median)"});
   expect_error(m + "fusion: {window: soon}\n", {"fusion.window: expected a number, got 'soon'"});
   expect_error(m + "fusion: {max_wait: -1}\n", {"fusion.max_wait: must be > 0"});
@@ -234,10 +242,13 @@ TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
   expect_error(m + "fusion: {output_rate: 5000}\n", {"fusion.output_rate: must be <= 1000 Hz"});
   expect_error(std::string(kMinimal).replace(m.find("    intrinsics"), 0, "    timestamp_offset: 2\n"),
                {"cameras[0].timestamp_offset: must be within [-1, 1] seconds"});
-  expect_error(m + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: 70000}\n", {"outputs[0].port: must be 1..65535"});
-  expect_error(m + "outputs:\n  - {type: anycast, address: 127.0.0.1, port: 7}\n", {"outputs[0].type: unknown value 'anycast'"});
+  expect_error(m + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: 70000}\n",
+               {"outputs[0].port: must be 1..65535"});
+  expect_error(m + "outputs:\n  - {type: anycast, address: 127.0.0.1, port: 7}\n",
+               {"outputs[0].type: unknown value 'anycast'"});
   expect_error(m + "outputs:\n  - {type: unicast, port: 7}\n", {"outputs[0].address: required key is missing"});
-  expect_error(m + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: 7, format: xml}\n", {"outputs[0].format: unknown value 'xml'"});
+  expect_error(m + "outputs:\n  - {type: unicast, address: 127.0.0.1, port: 7, format: xml}\n",
+               {"outputs[0].format: unknown value 'xml'"});
   expect_error(m + "logging: {level: loud}\n", {"logging.level: unknown value 'loud'"});
   expect_error(m + "markers: {ids: {x1: {height: 0.1}}}\n", {"markers.ids.x1: marker id must be"});
   // A list or mapping as a key (found by fuzz_scene; yaml-cpp's own exception escaped before).
@@ -247,25 +258,38 @@ TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
   expect_error(std::string(kMinimal).replace(m.find("red.yaml"), 8, "nothere.yaml"),
                {"cameras[0].intrinsics: no such file", "nothere.yaml"});
   expect_error(std::string(kMinimal).replace(m.find("model.json"), 10, "missing.json"), {"model_file: no such file"});
-  expect_error(std::string(kMinimal).replace(m.find("v4l2"), 4, "webcam"), {"cameras[0].source: unknown value 'webcam' (v4l2|file|synthetic)"});
-  expect_error(std::string(kMinimal).replace(m.find("    device: /dev/video0\n"), 24, ""), {"cameras[0].device: required key is missing"});
+  expect_error(std::string(kMinimal).replace(m.find("v4l2"), 4, "webcam"),
+               {"cameras[0].source: unknown value 'webcam' (v4l2|file|synthetic)"});
+  expect_error(std::string(kMinimal).replace(m.find("    device: /dev/video0\n"), 24, ""),
+               {"cameras[0].device: required key is missing"});
   expect_error(m + "cameras: []\n", {"ipsd.yaml:7:1: cameras: duplicate key"});
   expect_error("model_file: model.json\n", {"cameras: required"});
-  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, fps: fast}\nmodel_file: model.json\n",
-               {"ipsd.yaml:2:", "cameras[0].fps: expected a number, got 'fast'"});
-  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, required: maybe}\nmodel_file: model.json\n",
-               {"cameras[0].required: expected true or false"});
-  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml}\n"
-               "  - {name: a, source: v4l2, device: /dev/video1, intrinsics: red.yaml}\nmodel_file: model.json\n",
-               {"cameras[1].name: duplicate camera name 'a'"});
+  expect_error(
+      "cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, fps: fast}\nmodel_file: "
+      "model.json\n",
+      {"ipsd.yaml:2:", "cameras[0].fps: expected a number, got 'fast'"});
+  expect_error(
+      "cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, required: maybe}\nmodel_file: "
+      "model.json\n",
+      {"cameras[0].required: expected true or false"});
+  expect_error(
+      "cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml}\n"
+      "  - {name: a, source: v4l2, device: /dev/video1, intrinsics: red.yaml}\nmodel_file: model.json\n",
+      {"cameras[1].name: duplicate camera name 'a'"});
   expect_error("cameras: [\nmodel_file", {"ipsd.yaml:", "not valid YAML"});
   expect_error("", {"empty configuration"});
-  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {exposure: 150}}\nmodel_file: model.json\n",
-               {"cameras[0].controls.exposure: must be in (0, 1] seconds"});
-  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {power_line_hz: 55}}\nmodel_file: model.json\n",
-               {"cameras[0].controls.power_line_hz: must be 50, 60 or 0"});
-  expect_error("cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {brightness: 3}}\nmodel_file: model.json\n",
-               {"cameras[0].controls.brightness: unknown key"});
+  expect_error(
+      "cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {exposure: "
+      "150}}\nmodel_file: model.json\n",
+      {"cameras[0].controls.exposure: must be in (0, 1] seconds"});
+  expect_error(
+      "cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {power_line_hz: "
+      "55}}\nmodel_file: model.json\n",
+      {"cameras[0].controls.power_line_hz: must be 50, 60 or 0"});
+  expect_error(
+      "cameras:\n  - {name: a, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {brightness: "
+      "3}}\nmodel_file: model.json\n",
+      {"cameras[0].controls.brightness: unknown key"});
 }
 
 TEST_F(ConfigTest, LoadReadsTheFileAndRefusesAMissingOne) {

@@ -6,9 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include "config_scratch.h"
 #include "ips/config/config.h"
 #include "ips/core/error.h"
-#include "config_scratch.h"
 
 namespace ips {
 namespace {
@@ -40,16 +40,19 @@ TEST_F(FixedMarkerConfigTest, FixedMarkersAreKnownHeightAndUnpublishedByDefault)
 
 TEST_F(FixedMarkerConfigTest, BadValuesNameTheKeyAndPlace) {
   const std::string want = "markers.ids.7.fixed: expected [x, y, z]: three finite numbers";
-  for (const std::string bad : {"[1, 2]", "[1, 2, 3, 4]", "[1, two, 3]", "[1, 2, .nan]", "[1, 2, .inf]", "3", "{x: 1}",
-                                "[1, [2], 3]"}) {
+  for (const std::string bad :
+       {"[1, 2]", "[1, 2, 3, 4]", "[1, two, 3]", "[1, 2, .nan]", "[1, 2, .inf]", "3", "{x: 1}", "[1, [2], 3]"}) {
     const std::string e = error_of("markers:\n  ids:\n    7: {fixed: " + bad + "}\n");
     EXPECT_NE(e.find("ipsd.yaml:6:"), std::string::npos) << bad << ": " << e;
     EXPECT_NE(e.find(want), std::string::npos) << bad << ": " << e;
   }
-  EXPECT_NE(error_of("markers:\n  ids:\n    7: {fixed: [0, 0, 0], publish: maybe}\n").find("markers.ids.7.publish: expected true or false"),
+  EXPECT_NE(error_of("markers:\n  ids:\n    7: {fixed: [0, 0, 0], publish: maybe}\n")
+                .find("markers.ids.7.publish: expected true or false"),
             std::string::npos);
-  EXPECT_NE(error_of("fusion: {fixed_marker_warn: 0}\n").find("fusion.fixed_marker_warn: must be > 0"), std::string::npos);
-  EXPECT_NE(error_of("markers:\n  ids:\n    7: {fixd: [0, 0, 0]}\n").find("markers.ids.7.fixd: unknown key"), std::string::npos);
+  EXPECT_NE(error_of("fusion: {fixed_marker_warn: 0}\n").find("fusion.fixed_marker_warn: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(error_of("markers:\n  ids:\n    7: {fixd: [0, 0, 0]}\n").find("markers.ids.7.fixd: unknown key"),
+            std::string::npos);
 }
 
 }  // namespace

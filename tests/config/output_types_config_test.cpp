@@ -7,9 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include "config_scratch.h"
 #include "ips/config/config.h"
 #include "ips/core/error.h"
-#include "config_scratch.h"
 
 namespace ips {
 namespace {
@@ -74,18 +74,22 @@ TEST_F(MavlinkConfigTest, BadValuesNameTheirKey) {
   const std::string head = "  - {type: mavlink, address: 127.0.0.1, port: 14550, ";
   expect_error(head + "vehicles: [{marker: 1, system_id: 0}]}\n", "outputs[0].vehicles[0].system_id: must be 1..255");
   expect_error(head + "vehicles: [{marker: 1, system_id: 256}]}\n", "outputs[0].vehicles[0].system_id: must be 1..255");
-  expect_error(head + "vehicles: [{marker: 1, system_id: one}]}\n", "outputs[0].vehicles[0].system_id: expected an integer");
+  expect_error(head + "vehicles: [{marker: 1, system_id: one}]}\n",
+               "outputs[0].vehicles[0].system_id: expected an integer");
   expect_error(head + "vehicles: [{marker: 1}]}\n", "outputs[0].vehicles[0].system_id: required key is missing");
   expect_error(head + "vehicles: [{marker: 1, system_id: 2}, {marker: 4, system_id: 2}]}\n",
                "outputs[0].vehicles[1].system_id: system id 2 is already a vehicle");
   expect_error(head + "vehicles: [{marker: 1, system_id: 2}, {marker: 1, system_id: 3}]}\n",
                "outputs[0].vehicles[1].marker: marker 1 is already a vehicle");
-  expect_error(head + "vehicles: [{marker: 1, system_id: 2, sysid: 3}]}\n", "outputs[0].vehicles[0].sysid: unknown key");
+  expect_error(head + "vehicles: [{marker: 1, system_id: 2, sysid: 3}]}\n",
+               "outputs[0].vehicles[0].sysid: unknown key");
   expect_error(head + "vehicles: []}\n", "outputs[0].vehicles: expected a non-empty list");
-  expect_error("  - {type: mavlink, address: 127.0.0.1, port: 14550}\n", "outputs[0].vehicles: required key is missing");
+  expect_error("  - {type: mavlink, address: 127.0.0.1, port: 14550}\n",
+               "outputs[0].vehicles: required key is missing");
   expect_error(head + "vehicles: [{marker: 1, system_id: 2}], messages: [attitude]}\n",
                "outputs[0].messages: unknown message 'attitude'");
-  expect_error(head + "vehicles: [{marker: 1, system_id: 2}], component_id: 0}\n", "outputs[0].component_id: must be 1..255");
+  expect_error(head + "vehicles: [{marker: 1, system_id: 2}], component_id: 0}\n",
+               "outputs[0].component_id: must be 1..255");
   expect_error(head + "vehicles: [{marker: 1, system_id: 2}], rate_limit: 0}\n", "outputs[0].rate_limit: must be > 0");
   expect_error(head + "vehicles: [{marker: 1, system_id: 2}], format: json}\n", "outputs[0].format: unknown key");
   expect_error("  - {type: mavlnk, address: 127.0.0.1, port: 14550}\n", "outputs[0].type: unknown value 'mavlnk'");
@@ -117,10 +121,12 @@ TEST_F(MavlinkConfigTest, SubscriptionsKeysDefaultsAndBadValues) {
 
   expect_error("  - {type: subscriptions, port: 5010, allow: [10.0.0.0/8, 10.1.0.0/33]}\n",
                "outputs[0].allow[1]: '10.1.0.0/33' is not an IPv4 subnet");
-  expect_error("  - {type: subscriptions, port: 5010, allow: [lab-wifi]}\n", "outputs[0].allow[0]: 'lab-wifi' is not an IPv4 subnet");
+  expect_error("  - {type: subscriptions, port: 5010, allow: [lab-wifi]}\n",
+               "outputs[0].allow[0]: 'lab-wifi' is not an IPv4 subnet");
   expect_error("  - {type: subscriptions, port: 5010, allow: [10.0.0.1/8]}\n", "outputs[0].allow[0]:");
   expect_error("  - {type: subscriptions, port: 5010, allow: []}\n", "outputs[0].allow: expected a non-empty list");
-  expect_error("  - {type: subscriptions, port: 5010, max_subscribers: 0}\n", "outputs[0].max_subscribers: must be 1..1024");
+  expect_error("  - {type: subscriptions, port: 5010, max_subscribers: 0}\n",
+               "outputs[0].max_subscribers: must be 1..1024");
   expect_error("  - {type: subscriptions, port: 5010, max_lease: 0.5}\n", "outputs[0].max_lease: must be >= 1");
   expect_error("  - {type: subscriptions}\n", "outputs[0].port: required key is missing");
   expect_error("  - {type: subscriptions, port: 5010, format: json}\n", "outputs[0].format: unknown key");

@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/config/config.h"
 #include "config_scratch.h"
+#include "ips/config/config.h"
 
 namespace ips {
 namespace {
@@ -27,7 +27,9 @@ std::string config(const std::string& cameras, double window) {
 TEST_F(ReloadEquality, UnchangedCamerasCompareEqualForEverySourceKind) {
   const std::string cams =
       "  - {name: red, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {exposure: 0.004}}\n"
-      "  - {name: white, source: file, path: " + dir_.string() + ", intrinsics: red.yaml}\n"
+      "  - {name: white, source: file, path: " +
+      dir_.string() +
+      ", intrinsics: red.yaml}\n"
       "  - {name: black, source: synthetic, scene: scene.yaml}\n"
       "  - {name: blue, source: synthetic, scene: scene.yaml, transport_delay: 0.02}\n";
   const DaemonConfig a = parse(config(cams, 0.02));
@@ -42,9 +44,10 @@ TEST_F(ReloadEquality, UnchangedCamerasCompareEqualForEverySourceKind) {
 
 TEST_F(ReloadEquality, AChangedCameraSettingComparesUnequal) {
   const auto with = [&](const std::string& exposure, const std::string& delay) {
-    return parse(config("  - {name: red, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {exposure: " +
-                            exposure + "}}\n  - {name: black, source: synthetic, scene: scene.yaml" + delay + "}\n",
-                        0.02));
+    return parse(config(
+        "  - {name: red, source: v4l2, device: /dev/video0, intrinsics: red.yaml, controls: {exposure: " + exposure +
+            "}}\n  - {name: black, source: synthetic, scene: scene.yaml" + delay + "}\n",
+        0.02));
   };
   const DaemonConfig base = with("0.004", "");
   EXPECT_FALSE(base.cameras == with("0.005", "").cameras);

@@ -12,10 +12,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "bodies_lab_scene.h"
 #include "ips/core/clock.h"
 #include "ips/output/packet_codec.h"
 #include "ips/sim/scene.h"
-#include "bodies_lab_scene.h"
 #include "plane_model.h"
 #include "process_util.h"
 #include "release_only.h"
@@ -44,8 +44,8 @@ TEST(IpsdBodies, PublishedBodyPosesMatchTheSimulatorsTruth) {
   const char* names[] = {"red", "white", "black"};
   const double phases[] = {0.0, 0.011, 0.023};
   for (int c = 0; c < 3; ++c)
-    cfg += std::string("  - {name: ") + names[c] + ", source: synthetic, scene: scene.yaml, fps: 10, phase: " +
-           std::to_string(phases[c]) + "}\n";
+    cfg += std::string("  - {name: ") + names[c] +
+           ", source: synthetic, scene: scene.yaml, fps: 10, phase: " + std::to_string(phases[c]) + "}\n";
   cfg += test::bodies_lab_daemon_sections();
   cfg += "model_file: model.json\noutputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(rx.port) +
          ", format: binary}\n";
@@ -76,7 +76,8 @@ TEST(IpsdBodies, PublishedBodyPosesMatchTheSimulatorsTruth) {
   ASSERT_GT(datagrams, 0u) << log;
   EXPECT_EQ(v2, datagrams);
   EXPECT_GT(markers[3], 10) << "the plain marker is still published";
-  for (const std::uint32_t id : {5u, 7u, 8u}) EXPECT_EQ(markers.count(id), 0u) << "body marker " << id << " published as a marker";
+  for (const std::uint32_t id : {5u, 7u, 8u})
+    EXPECT_EQ(markers.count(id), 0u) << "body marker " << id << " published as a marker";
   EXPECT_EQ(log.find("do not publish"), std::string::npos) << log;
 
   // The synthetic cameras' scene time 0 is the daemon's start, logged.
@@ -93,7 +94,8 @@ TEST(IpsdBodies, PublishedBodyPosesMatchTheSimulatorsTruth) {
     const BodyPose truth = scene.body_pose_at(index, 1e-9 * static_cast<double>(r.t - epoch));
     pos_err[r.b.name].push_back(std::hypot(r.b.x - truth.position.x(), r.b.y - truth.position.y()));
     if (r.b.has_yaw)
-      yaw_err[r.b.name].push_back(std::abs(std::remainder(r.b.yaw - truth.yaw, 2 * std::numbers::pi)) * 180 / std::numbers::pi);
+      yaw_err[r.b.name].push_back(std::abs(std::remainder(r.b.yaw - truth.yaw, 2 * std::numbers::pi)) * 180 /
+                                  std::numbers::pi);
     // Velocity and yaw rate: the truth's central differences at the record's time. The daemon's
     // are means over fusion.velocity_span (0.2 s) ending there: on this 1.95 m circle at 0.5
     // m/s they lag the truth's direction by 0.1 s of turning, 1.3 cm/s.
@@ -103,7 +105,8 @@ TEST(IpsdBodies, PublishedBodyPosesMatchTheSimulatorsTruth) {
       const Eigen::Vector3d v = (b.position - a.position) / (2 * h);
       vel_err[r.b.name].push_back(std::hypot(r.b.vx - v.x(), r.b.vy - v.y()));
       if (r.b.has_yaw_rate)
-        rate_err[r.b.name].push_back(std::abs(r.b.yaw_rate - std::remainder(b.yaw - a.yaw, 2 * std::numbers::pi) / (2 * h)));
+        rate_err[r.b.name].push_back(
+            std::abs(r.b.yaw_rate - std::remainder(b.yaw - a.yaw, 2 * std::numbers::pi) / (2 * h)));
     }
     auto [it, fresh] = last.try_emplace(r.b.name, r.t);
     if (!fresh && r.t < it->second) ++backwards;

@@ -19,12 +19,14 @@ inline std::string bodies_lab_scene() {
   return published_scene_with(
       std::string("markers:\n  - {id: 3, length: 0.15, height: 0.10, x: 1.2, y: 2.0, yaw_deg: 20}\nbodies:\n") +
       kBodiesLabCube + "    trajectory: {type: circle, center: [2.44, 2.44], radius: 1.95, speed: 0.5}\n" +
-      kBodiesLabLong + "    trajectory: {type: circle, center: [2.44, 2.44], radius: 1.95, speed: 0.5, start_deg: 180}\n");
+      kBodiesLabLong +
+      "    trajectory: {type: circle, center: [2.44, 2.44], radius: 1.95, speed: 0.5, start_deg: 180}\n");
 }
 
 /// The daemon configuration's markers and bodies for that scene.
 inline std::string bodies_lab_daemon_sections() {
-  return "markers:\n  ids:\n    3: {height: 0.10, edge_length: 0.15}\nbodies:\n" + std::string(kBodiesLabCube) + kBodiesLabLong;
+  return "markers:\n  ids:\n    3: {height: 0.10, edge_length: 0.15}\nbodies:\n" + std::string(kBodiesLabCube) +
+         kBodiesLabLong;
 }
 
 }  // namespace ips::test

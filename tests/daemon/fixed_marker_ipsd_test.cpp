@@ -1,9 +1,9 @@
 // The bumped-camera check end to end: the real ipsd on two synthetic cameras of the published
 // layout, two reference markers lying on the floor at their surveyed positions
-// (markers.ids.<id>.fixed; 7 in white's view, 8 in red's) and a robot. Undisturbed: no warning, a small error in the status, marker 7 never in the
-// stream. Then camera 'white' is rotated by 1 degree (the scene file it renders is replaced and
-// the configuration reloaded, which recreates the synthetic sources) while its model stays the
-// same: the warning names 'white', and only 'white', within 2 s of the reload.
+// (markers.ids.<id>.fixed; 7 in white's view, 8 in red's) and a robot. Undisturbed: no warning, a small error in the
+// status, marker 7 never in the stream. Then camera 'white' is rotated by 1 degree (the scene file it renders is
+// replaced and the configuration reloaded, which recreates the synthetic sources) while its model stays the same: the
+// warning names 'white', and only 'white', within 2 s of the reload.
 #include <signal.h>
 
 #include <chrono>
@@ -32,14 +32,21 @@ const char* kWarning = "may have moved: fixed marker";
 std::string config_text(const fs::path& dir, std::uint16_t port, const std::string& white_scene) {
   const std::string fps = std::to_string(kFps);
   return "cameras:\n"
-         "  - {name: red, source: synthetic, scene: scene.yaml, fps: " + fps + "}\n"
-         "  - {name: white, source: synthetic, scene: " + white_scene + ", scene_camera: white, fps: " + fps + "}\n"
+         "  - {name: red, source: synthetic, scene: scene.yaml, fps: " +
+         fps +
+         "}\n"
+         "  - {name: white, source: synthetic, scene: " +
+         white_scene + ", scene_camera: white, fps: " + fps +
+         "}\n"
          "markers:\n  ids:\n    1: {height: 0.15}\n    7: {name: origin, fixed: [3.6, 2.2, 0.0]}\n"
          "    8: {fixed: [2.4, 1.1, 0.0]}\n"
          "model_file: model.json\n"
          "fusion: {method: mean, window: 0.02}\n"
-         "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(port) + ", format: binary}\n"
-         "status: {interval: 0, socket: " + (dir / "status.sock").string() + "}\n";
+         "outputs:\n  - {type: unicast, address: 127.0.0.1, port: " +
+         std::to_string(port) +
+         ", format: binary}\n"
+         "status: {interval: 0, socket: " +
+         (dir / "status.sock").string() + "}\n";
 }
 
 // Count of `needle` in `text`.
@@ -142,9 +149,12 @@ TEST(FixedMarkerIpsd, ABumpedCameraIsNamedWithinTwoSecondsAndTheReferenceIsNever
   double warned_after_s = NAN;
   while (std::isnan(warned_after_s)) {
     const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_hup).count();
-    if (count(test::read_file(log), kWarning) > 0) warned_after_s = since;
-    else if (since > 10.0 * test::kTimeScale) break;
-    else receive_for(0.02);
+    if (count(test::read_file(log), kWarning) > 0)
+      warned_after_s = since;
+    else if (since > 10.0 * test::kTimeScale)
+      break;
+    else
+      receive_for(0.02);
   }
   ASSERT_FALSE(std::isnan(warned_after_s)) << "no warning after the bump\n" << test::read_file(log);
   receive_for(2.0 * test::kTimeScale);
@@ -157,10 +167,11 @@ TEST(FixedMarkerIpsd, ABumpedCameraIsNamedWithinTwoSecondsAndTheReferenceIsNever
   EXPECT_GT(after.at("white").error_m, 0.03);
   EXPECT_FALSE(after.at("red").moved);
   EXPECT_LT(after.at("red").error_m, 0.015);
-  std::printf("[ fixed   ] before: red (marker 8) %.2f cm, white (marker 7) %.2f cm; after white's 1 deg bump: "
-              "white %.2f cm, red %.2f cm; warning %.2f s after the reload\n",
-              100 * before.at("red").error_m, 100 * before.at("white").error_m, 100 * after.at("white").error_m,
-              100 * after.at("red").error_m, warned_after_s);
+  std::printf(
+      "[ fixed   ] before: red (marker 8) %.2f cm, white (marker 7) %.2f cm; after white's 1 deg bump: "
+      "white %.2f cm, red %.2f cm; warning %.2f s after the reload\n",
+      100 * before.at("red").error_m, 100 * before.at("white").error_m, 100 * after.at("white").error_m,
+      100 * after.at("red").error_m, warned_after_s);
   // Timing on an idle-enough machine; the sanitizers slow the restart and rendering ~10x.
   EXPECT_LT(warned_after_s, 2.0 * test::kTimeScale);
 

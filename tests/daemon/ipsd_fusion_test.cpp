@@ -2,10 +2,10 @@
 // asynchronous fusion against the simulator's truth at each record's capture time, the order
 // guarantee with a deliberately late camera, and triangulation without marker heights.
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdio>
-#include <atomic>
 #include <map>
 #include <thread>
 
@@ -74,7 +74,8 @@ class IpsdFusionTest : public ::testing::Test {
   // The output port is filled in by run(), which owns the receiver.
   static std::string config(const std::string& markers, const std::string& slow = "", const std::string& all = "",
                             const std::string& fusion = "") {
-    std::string c = "cameras:\n" + camera("red", 0.0, all) + camera("white", 0.011, all) + camera("black", 0.023, slow + all);
+    std::string c =
+        "cameras:\n" + camera("red", 0.0, all) + camera("white", 0.011, all) + camera("black", 0.023, slow + all);
     c += markers + fusion;
     c += "model_file: model.json\n";
     c += "outputs:\n  - {type: unicast, address: 127.0.0.1, port: @PORT@, format: binary}\n";
@@ -147,7 +148,7 @@ std::size_t expect_per_marker_order(const std::vector<Record>& records) {
 
 TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
   const Run r = run(config("markers:\n  height: 0.0\n  ids:\n    1: {height: 0.15}\n"
-                                                  "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n"),
+                           "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n"),
                     6.0);
   ASSERT_FALSE(r.records.empty()) << r.log;
   expect_per_marker_order(r.records);
@@ -160,10 +161,11 @@ TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
     if (rec.m.id == 1 || rec.m.id == 2) fast.push_back(e);
     if (std::popcount(rec.m.camera_mask) >= 2) several.push_back(e);
   }
-  std::printf("[ ipsd    ] 1 m/s at %.0f fps, phases 0/11/23 ms: 2D error p95 %.2f mm over %zu records (%zu from >= 2 "
-              "cameras, p95 %.2f mm); processing latency p50 %s p99 %s ms\n",
-              kFps, 1e3 * p95(fast), fast.size(), several.size(), 1e3 * p95(several),
-              r.status["processing_latency_ms"]["p50"].dump().c_str(), r.status["processing_latency_ms"]["p99"].dump().c_str());
+  std::printf(
+      "[ ipsd    ] 1 m/s at %.0f fps, phases 0/11/23 ms: 2D error p95 %.2f mm over %zu records (%zu from >= 2 "
+      "cameras, p95 %.2f mm); processing latency p50 %s p99 %s ms\n",
+      kFps, 1e3 * p95(fast), fast.size(), several.size(), 1e3 * p95(several),
+      r.status["processing_latency_ms"]["p50"].dump().c_str(), r.status["processing_latency_ms"]["p99"].dump().c_str());
   ASSERT_FALSE(fast.empty());
   EXPECT_LE(p95(fast), 0.010);
   ASSERT_TRUE(r.status["processing_latency_ms"].contains("p99"));
@@ -190,7 +192,7 @@ TEST_F(IpsdFusionTest, ALateCameraOnAStarvedMachineNeverMakesAMarkerGoBackInTime
       while (!stop.load(std::memory_order_relaxed)) x = x + 1;
     });
   const Run r = run(config("markers:\n  height: 0.1\n  ids:\n    1: {height: 0.15}\n"
-                                                  "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n",
+                           "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n",
                            ", transport_delay: 0.25, timestamp_offset: 0.004"),
                     5.0);
   stop = true;
@@ -205,10 +207,11 @@ TEST_F(IpsdFusionTest, ALateCameraOnAStarvedMachineNeverMakesAMarkerGoBackInTime
     EXPECT_TRUE(in_period == 0 || in_period == 11'000'000 || in_period == 27'000'000) << in_period;
   }
   EXPECT_TRUE(phases.count(27'000'000)) << "no record from black's frames";
-  std::printf("[ ipsd    ] late camera, both cores spun by the test: %zu records, none back in time; "
-              "%llu observations merged late, %llu too old\n",
-              r.records.size(), static_cast<unsigned long long>(r.status["fusion_late"].get<std::uint64_t>()),
-              static_cast<unsigned long long>(r.status["fusion_too_old"].get<std::uint64_t>()));
+  std::printf(
+      "[ ipsd    ] late camera, both cores spun by the test: %zu records, none back in time; "
+      "%llu observations merged late, %llu too old\n",
+      r.records.size(), static_cast<unsigned long long>(r.status["fusion_late"].get<std::uint64_t>()),
+      static_cast<unsigned long long>(r.status["fusion_too_old"].get<std::uint64_t>()));
   EXPECT_GT(r.status["fusion_late"].get<std::uint64_t>(), 0u) << r.status.dump();
 }
 
@@ -241,10 +244,11 @@ TEST_F(IpsdFusionTest, FixedRateOutputPredictsEveryMarkerToTheTick) {
   // for data), and the prediction reaches further. The share of ticks carrying both 1 m/s
   // markers shows how starved this run was.
   const double coverage = static_cast<double>(fast.size()) / (2.0 * static_cast<double>(ticks.size()));
-  std::printf("[ ipsd    ] fixed rate 20 Hz: predicted 2D error median %.1f p95 %.1f mm at 1 m/s on 0.6-0.7 m circles "
-              "(%zu, %.0f %% of ticks), median %.1f p95 %.1f mm at 0.3 m/s or static (%zu)\n",
-              1e3 * median(fast), 1e3 * p95(fast), fast.size(), 100 * coverage, 1e3 * median(slow), 1e3 * p95(slow),
-              slow.size());
+  std::printf(
+      "[ ipsd    ] fixed rate 20 Hz: predicted 2D error median %.1f p95 %.1f mm at 1 m/s on 0.6-0.7 m circles "
+      "(%zu, %.0f %% of ticks), median %.1f p95 %.1f mm at 0.3 m/s or static (%zu)\n",
+      1e3 * median(fast), 1e3 * p95(fast), fast.size(), 100 * coverage, 1e3 * median(slow), 1e3 * p95(slow),
+      slow.size());
   // The prediction reaches from the newest frame (10 fps, 33 ms transport) to the tick: 33-183 ms
   // ahead, 100 ms more for each frame a camera skips. Along a 0.6 m circle at 1 m/s a straight
   // line h ahead is off by ~v^2 h^2 / 2r: 1 mm at 33 ms, 28 mm at 183 ms, 67 mm at 283 ms.
@@ -277,8 +281,8 @@ TEST_F(IpsdFusionTest, TwoCamerasTriangulateMarkersWithoutHeights) {
     EXPECT_GE(std::popcount(rec.m.camera_mask), 2) << "one camera without a height must not be reported";
     const double t = 1e-9 * static_cast<double>(rec.t_mono_ns - r.epoch);
     const sim::MarkerPose truth = scene.marker_pose(static_cast<int>(rec.m.id), t);
-    errors.push_back(std::sqrt(std::pow(rec.m.x - truth.x, 2) + std::pow(rec.m.y - truth.y, 2) +
-                               std::pow(rec.m.z - truth.z, 2)));
+    errors.push_back(
+        std::sqrt(std::pow(rec.m.x - truth.x, 2) + std::pow(rec.m.y - truth.y, 2) + std::pow(rec.m.z - truth.z, 2)));
     ++per_marker[rec.m.id];
   }
   std::printf("[ ipsd    ] triangulated without heights: 3D error p95 %.2f mm over %zu records, markers seen %zu\n",

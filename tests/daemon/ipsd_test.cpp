@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 
 #include "ips/core/clock.h"
-#include "ips/output/packet_codec.h"
 #include "ips/mapping/mapper.h"
 #include "ips/mapping/model_file.h"
+#include "ips/output/packet_codec.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
 #include "plane_model.h"
@@ -124,8 +124,8 @@ TEST_F(IpsdTest, StreamMatchesTheSimulatorsTruthAndSurvivesABadReload) {
       const sim::MarkerPose truth = scene.marker_pose(static_cast<int>(m.id), t);
       const double err = std::hypot(m.x - truth.x, m.y - truth.y);
       worst = std::max(worst, err);
-      EXPECT_LT(err, 0.02) << "marker " << m.id << " at t " << t << ": (" << m.x << ", " << m.y << ") vs ("
-                           << truth.x << ", " << truth.y << "), cameras 0x" << std::hex << m.camera_mask;
+      EXPECT_LT(err, 0.02) << "marker " << m.id << " at t " << t << ": (" << m.x << ", " << m.y << ") vs (" << truth.x
+                           << ", " << truth.y << "), cameras 0x" << std::hex << m.camera_mask;
       EXPECT_NEAR(m.z, m.id == 1 ? 0.15 : 0.10, 1e-6);  // plane mapper: the known height
       EXPECT_NE(m.camera_mask, 0u);
       fused_from_several += std::popcount(m.camera_mask) >= 2;
@@ -140,8 +140,8 @@ TEST_F(IpsdTest, StreamMatchesTheSimulatorsTruthAndSurvivesABadReload) {
     EXPECT_GT(positions, 20);
     EXPECT_GT(fused_from_several, 0) << "no marker was fused from two cameras";
   }
-  std::printf("[ ipsd    ] %d positions, worst 2D error %.2f cm, %d fused from >= 2 cameras\n", positions,
-              worst * 100, fused_from_several);
+  std::printf("[ ipsd    ] %d positions, worst 2D error %.2f cm, %d fused from >= 2 cameras\n", positions, worst * 100,
+              fused_from_several);
 
   // SIGHUP with a corrupt model file: refused, the old model keeps publishing accurately.
   std::ofstream(*dir_ / "live_model.json") << "{\"format\": \"ips-model\", \"cameras\": [truncated";
@@ -223,9 +223,10 @@ TEST_F(IpsdTest, KalmanStreamCarriesTheRobotsTrueVelocityAndDetectionSettingsRel
   ASSERT_GE(speed_err.size(), 8u) << test::read_file(log);
   std::sort(speed_err.begin(), speed_err.end());
   const double median = speed_err[speed_err.size() / 2];
-  std::printf("[ ipsd    ] Kalman: %zu velocities after warm-up, error median %.3f max %.3f m/s; "
-              "worst position error %.2f cm\n",
-              speed_err.size(), median, speed_err.back(), worst_pos * 100);
+  std::printf(
+      "[ ipsd    ] Kalman: %zu velocities after warm-up, error median %.3f max %.3f m/s; "
+      "worst position error %.2f cm\n",
+      speed_err.size(), median, speed_err.back(), worst_pos * 100);
   // The robots move at 0.25-0.3 m/s; line 2 turns back at its ends (an instant reversal).
   EXPECT_LT(median, 0.05);
   EXPECT_LT(worst_pos, 0.03);
@@ -290,16 +291,19 @@ TEST_F(IpsdTest, AnAbsentCameraIsRetriedUnlessRequired) {
   // `ipsd --check` on the running daemon's config (systemd's ExecCondition, an admin's check)
   // validates without touching the running daemon: its status socket still answers afterwards.
   const fs::path check_log = *dir_ / "ghost_check.log";
-  EXPECT_EQ(test::run({test::bin("ipsd"), "--config", cfg.string(), "--check"}, check_log, std::chrono::seconds(120)), 0)
+  EXPECT_EQ(test::run({test::bin("ipsd"), "--config", cfg.string(), "--check"}, check_log, std::chrono::seconds(120)),
+            0)
       << test::read_file(check_log);
-  EXPECT_TRUE(nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()), nullptr, false).is_object())
+  EXPECT_TRUE(
+      nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()), nullptr, false).is_object())
       << "ipsd --check took the running daemon's status socket";
   ::kill(pid, SIGTERM);
   EXPECT_EQ(test::wait_exit(pid, std::chrono::seconds(5)), 0);
   // One warning for the absent camera, not one per retry.
   const std::string out = test::read_file(log);
   std::size_t warnings = 0;
-  for (auto p = out.find("ghost: cannot open"); p != std::string::npos; p = out.find("ghost: cannot open", p + 1)) ++warnings;
+  for (auto p = out.find("ghost: cannot open"); p != std::string::npos; p = out.find("ghost: cannot open", p + 1))
+    ++warnings;
   EXPECT_EQ(warnings, 1u) << out;
 
   // Required: the daemon refuses to start, exit status 1 (systemd restarts it later).
@@ -386,7 +390,8 @@ TEST_F(IpsdTest, MalformedConfigurationsAreRefusedWithExitStatus2) {
        "cameras[0].intrinsics: no such file"},
       {"unknown scene camera", replace(good, "{name: red,", "{name: red, scene_camera: green,"),
        "cameras[0].scene_camera: scene has no camera 'green'"},
-      {"bad output", replace(good, "type: unicast", "type: multicast"), "outputs[0].address: '127.0.0.1' is not a multicast group"},
+      {"bad output", replace(good, "type: unicast", "type: multicast"),
+       "outputs[0].address: '127.0.0.1' is not a multicast group"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);

@@ -130,8 +130,8 @@ TEST(IpsListen, JoinsAMulticastGroupThePublisherSendsTo) {
   out.port = port;
   out.format = WireFormat::kBinary;
   out.interface = "127.0.0.1";
-  const std::string text = listen_to_publisher(
-      {"--group", group + ":" + std::to_string(port), "--interface", "127.0.0.1"}, out, "joined");
+  const std::string text =
+      listen_to_publisher({"--group", group + ":" + std::to_string(port), "--interface", "127.0.0.1"}, out, "joined");
   EXPECT_EQ(count_of(text, "{\"type\":\"ips.positions\""), 3u) << text;
   EXPECT_EQ(count_of(text, "\"id\":41"), 3u) << text;
   EXPECT_EQ(count_of(text, "\"id\":42"), 3u) << text;
@@ -145,8 +145,7 @@ TEST(IpsListen, ReceivesWhatThePublisherBroadcasts) {
   out.address = "127.255.255.255";
   out.port = port;
   out.format = WireFormat::kJson;
-  const std::string text =
-      listen_to_publisher({"--bind", "0.0.0.0:" + std::to_string(port)}, out, "listening on");
+  const std::string text = listen_to_publisher({"--bind", "0.0.0.0:" + std::to_string(port)}, out, "listening on");
   EXPECT_EQ(count_of(text, "{\"type\":\"ips.positions\""), 3u) << text;
   EXPECT_EQ(count_of(text, "\"id\":41"), 3u) << text;
   EXPECT_NE(text.find("ips listen: 3 datagrams, 0 malformed"), std::string::npos) << text;

@@ -76,11 +76,12 @@ TEST_F(OutputsIpsdTest, MavlinkMatchesTheStreamAndSubscribersGetTheirOwn) {
   test::UdpReceiver plain, mav;
   const std::uint16_t sub_port = test::free_udp_port();
   const fs::path cfg = *dir_ / "ipsd.yaml";
-  std::ofstream(cfg) << config(
-      "  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(plain.port) + "}\n" +
-      "  - {type: mavlink, address: 127.0.0.1, port: " + std::to_string(mav.port) +
-      ", messages: [vision_position_estimate, odometry], yaw_offset_deg: 30, vehicles: [{marker: 1, system_id: 42}]}\n" +
-      "  - {type: subscriptions, address: 127.0.0.1, port: " + std::to_string(sub_port) + ", allow: [127.0.0.1/32]}\n");
+  std::ofstream(cfg) << config("  - {type: unicast, address: 127.0.0.1, port: " + std::to_string(plain.port) + "}\n" +
+                               "  - {type: mavlink, address: 127.0.0.1, port: " + std::to_string(mav.port) +
+                               ", messages: [vision_position_estimate, odometry], yaw_offset_deg: 30, vehicles: "
+                               "[{marker: 1, system_id: 42}]}\n" +
+                               "  - {type: subscriptions, address: 127.0.0.1, port: " + std::to_string(sub_port) +
+                               ", allow: [127.0.0.1/32]}\n");
   const fs::path log = *dir_ / "ipsd.log";
   const pid_t pid = test::spawn({test::bin("ipsd"), "--config", cfg.string()}, log);
   const test::ChildGuard guard(pid);
@@ -147,7 +148,8 @@ TEST_F(OutputsIpsdTest, MavlinkMatchesTheStreamAndSubscribersGetTheirOwn) {
   const fs::path status_log = *dir_ / "status.log";
   EXPECT_EQ(test::run({test::bin("ips"), "status", "--socket", (*dir_ / "status.sock").string()}, status_log), 0);
   const std::string printed = test::read_file(status_log);
-  EXPECT_NE(printed.find("output subscriptions on 127.0.0.1:" + std::to_string(sub_port)), std::string::npos) << printed;
+  EXPECT_NE(printed.find("output subscriptions on 127.0.0.1:" + std::to_string(sub_port)), std::string::npos)
+      << printed;
   EXPECT_NE(printed.find("refused_subnet "), std::string::npos) << printed;
   EXPECT_EQ(printed.find("refused_subnet 0"), std::string::npos) << printed;  // the outsider resends each second
   // `ipsd --check` on the running daemon's config (systemd's ExecCondition, an admin's check)

@@ -78,7 +78,8 @@ TEST_F(SupervisorTest, FailedOpensBackOffDoublingToTheCapAndLogOnce) {
   for (int i = 0; i < 7; ++i) script.steps.push_back(Step::kOpenFails);
   script.steps.push_back(Step::kOpenOk);
   FakeTime t;
-  SourceSupervisor sup("cam0", [&] { return std::make_unique<FakeSource>(script); }, {}, t.clock());
+  SourceSupervisor sup(
+      "cam0", [&] { return std::make_unique<FakeSource>(script); }, {}, t.clock());
   EXPECT_FALSE(sup.open());
   EXPECT_EQ(sup.state(), SourceSupervisor::State::kBackoff);
   EXPECT_NE(sup.last_error().find("no such device"), std::string::npos);
@@ -96,7 +97,7 @@ TEST_F(SupervisorTest, FailedOpensBackOffDoublingToTheCapAndLogOnce) {
     ASSERT_NE(status, FrameSource::ReadStatus::kEnd);
   }
   // Waits: 0.5, 1, 2, 4, 8, 10, 10 s between the 8 attempts.
-  const std::vector<std::int64_t> expected = {500'000'000, 1'500'000'000, 3'500'000'000, 7'500'000'000,
+  const std::vector<std::int64_t> expected = {500'000'000,    1'500'000'000,  3'500'000'000, 7'500'000'000,
                                               15'500'000'000, 25'500'000'000, 35'500'000'000};
   EXPECT_EQ(attempts, expected);
   EXPECT_EQ(sup.failures(), 7u);
@@ -105,11 +106,12 @@ TEST_F(SupervisorTest, FailedOpensBackOffDoublingToTheCapAndLogOnce) {
 
 TEST_F(SupervisorTest, ThrowingAndEndingSourcesAreClosedAndReopened) {
   Script script;
-  script.steps = {Step::kOpenOk, Step::kFrame, Step::kCorrupt, Step::kThrow,   // run-time failure
-                  Step::kOpenOk, Step::kFrame, Step::kEnd,                      // the source ends
+  script.steps = {Step::kOpenOk, Step::kFrame, Step::kCorrupt, Step::kThrow,  // run-time failure
+                  Step::kOpenOk, Step::kFrame, Step::kEnd,                    // the source ends
                   Step::kOpenOk, Step::kFrame};
   FakeTime t;
-  SourceSupervisor sup("cam1", [&] { return std::make_unique<FakeSource>(script); }, {}, t.clock());
+  SourceSupervisor sup(
+      "cam1", [&] { return std::make_unique<FakeSource>(script); }, {}, t.clock());
   ASSERT_TRUE(sup.open());
   Frame f;
   EXPECT_EQ(sup.read(f, std::chrono::milliseconds(10)), FrameSource::ReadStatus::kFrame);
@@ -138,13 +140,17 @@ TEST_F(SupervisorTest, ThrowingAndEndingSourcesAreClosedAndReopened) {
 TEST_F(SupervisorTest, AFactoryThatThrowsIsAFailedOpen) {
   FakeTime t;
   int calls = 0;
-  SourceSupervisor sup("cam2", [&]() -> std::unique_ptr<FrameSource> {
-    ++calls;
-    throw InputError("scene.yaml: no camera 'x'");
-  }, {}, t.clock());
+  SourceSupervisor sup(
+      "cam2",
+      [&]() -> std::unique_ptr<FrameSource> {
+        ++calls;
+        throw InputError("scene.yaml: no camera 'x'");
+      },
+      {}, t.clock());
   EXPECT_FALSE(sup.open());
   Frame f;
-  for (int i = 0; i < 10; ++i) EXPECT_EQ(sup.read(f, std::chrono::milliseconds(100)), FrameSource::ReadStatus::kTimeout);
+  for (int i = 0; i < 10; ++i)
+    EXPECT_EQ(sup.read(f, std::chrono::milliseconds(100)), FrameSource::ReadStatus::kTimeout);
   EXPECT_EQ(calls, 2);  // 1 s of fake time: the first retry at 0.5 s, the next due at 1.5 s
   EXPECT_NE(sup.last_error().find("no camera 'x'"), std::string::npos);
 }

@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/aruco.hpp>
 
-#include "ips/core/error.h"
 #include "ips/capture/jpeg_decoder.h"
+#include "ips/core/error.h"
 #include "ips/geometry/marker_geometry.h"
 #include "ips/sim/renderer.h"
 
@@ -26,8 +26,7 @@ using ips::sim::SceneMarker;
 
 const std::filesystem::path kScene = std::filesystem::path(IPS_CONFIG_DIR) / "scenes/ou2023.yaml";
 
-Scene scene_without_markers(const std::string& dictionary = "DICT_4X4_100",
-                            unsigned floor_seed = 1) {
+Scene scene_without_markers(const std::string& dictionary = "DICT_4X4_100", unsigned floor_seed = 1) {
   Scene s = Scene::load(kScene);
   s.markers.clear();
   s.dictionary = dictionary;
@@ -38,8 +37,7 @@ Scene scene_without_markers(const std::string& dictionary = "DICT_4X4_100",
 }
 
 // Renders, JPEG-compresses at q90 and decodes back to greyscale, like a camera frame.
-cv::Mat camera_frame(const CameraRenderer& r, const std::vector<PlacedMarker>& markers,
-                     std::uint64_t index) {
+cv::Mat camera_frame(const CameraRenderer& r, const std::vector<PlacedMarker>& markers, std::uint64_t index) {
   cv::Mat gray;
   r.render_markers(markers, gray, index);
   ips::JpegDecoder decoder;
@@ -49,9 +47,8 @@ cv::Mat camera_frame(const CameraRenderer& r, const std::vector<PlacedMarker>& m
 }
 
 // Random non-overlapping markers of edge `length`, fully visible in the camera.
-std::vector<PlacedMarker> random_markers(const CameraRenderer& r, std::mt19937& rng, int n,
-                                         double length, double spread_x, double spread_y,
-                                         double max_height) {
+std::vector<PlacedMarker> random_markers(const CameraRenderer& r, std::mt19937& rng, int n, double length,
+                                         double spread_x, double spread_y, double max_height) {
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<PlacedMarker> out;
   const auto& C = r.camera().position;
@@ -59,12 +56,11 @@ std::vector<PlacedMarker> random_markers(const CameraRenderer& r, std::mt19937& 
     SceneMarker m;
     m.id = static_cast<int>(rng() % 100);
     m.length = length;
-    const MarkerPose p{C.x() + (u(rng) - 0.5) * spread_x, C.y() + (u(rng) - 0.5) * spread_y,
-                       u(rng) * max_height, u(rng) * 2 * std::numbers::pi};
+    const MarkerPose p{C.x() + (u(rng) - 0.5) * spread_x, C.y() + (u(rng) - 0.5) * spread_y, u(rng) * max_height,
+                       u(rng) * 2 * std::numbers::pi};
     bool ok = r.truth_of(m, p).visible;
     for (const auto& o : out) {
-      ok = ok && o.marker.id != m.id &&
-           std::hypot(o.poses[0].x - p.x, o.poses[0].y - p.y) > 1.6 * length + 0.05;
+      ok = ok && o.marker.id != m.id && std::hypot(o.poses[0].x - p.x, o.poses[0].y - p.y) > 1.6 * length + 0.05;
     }
     if (ok) out.push_back({m, {p}});
   }
@@ -94,27 +90,25 @@ TEST(Detector, FindsEveryMarkerWithExactCornersAndCameraCoordinates) {
     for (const auto& pm : placed) {
       ++markers;
       const auto truth = r.truth_of(pm.marker, pm.poses[0]);
-      const auto it = std::find_if(found.begin(), found.end(),
-                                   [&](const auto& d) { return d.id == pm.marker.id; });
+      const auto it = std::find_if(found.begin(), found.end(), [&](const auto& d) { return d.id == pm.marker.id; });
       ASSERT_NE(it, found.end()) << "marker " << pm.marker.id << " missed in frame " << f;
       for (std::size_t i = 0; i < 4; ++i) {
-        errs.push_back(std::hypot(it->corners_px[i].x - truth.corners_px[i].x,
-                                  it->corners_px[i].y - truth.corners_px[i].y));
+        errs.push_back(
+            std::hypot(it->corners_px[i].x - truth.corners_px[i].x, it->corners_px[i].y - truth.corners_px[i].y));
       }
       const auto obs = ips::locate_marker(*it, cam, pm.marker.length);
       EXPECT_NEAR(obs.p_cam.x(), truth.formula.p_cam.x(), 0.01);
       EXPECT_NEAR(obs.p_cam.y(), truth.formula.p_cam.y(), 0.01);
       EXPECT_NEAR(obs.p_cam.z(), truth.formula.p_cam.z(), 0.02);
-      EXPECT_NEAR(std::remainder(obs.yaw - truth.formula.yaw, 2 * std::numbers::pi), 0.0,
-                  std::numbers::pi / 180);
+      EXPECT_NEAR(std::remainder(obs.yaw - truth.formula.yaw, 2 * std::numbers::pi), 0.0, std::numbers::pi / 180);
       // The formula's truth itself is close to the geometric centre (sanity of the truth).
       EXPECT_NEAR(truth.formula.p_cam.z(), truth.centre_cam.z(), 0.05);
       const auto it2 = std::find_if(found_no_model.begin(), found_no_model.end(),
                                     [&](const auto& d) { return d.id == pm.marker.id; });
       ASSERT_NE(it2, found_no_model.end());
       for (std::size_t i = 0; i < 4; ++i) {
-        errs_no_model.push_back(std::hypot(it2->corners_px[i].x - truth.corners_px[i].x,
-                                           it2->corners_px[i].y - truth.corners_px[i].y));
+        errs_no_model.push_back(
+            std::hypot(it2->corners_px[i].x - truth.corners_px[i].x, it2->corners_px[i].y - truth.corners_px[i].y));
       }
     }
   }
@@ -138,19 +132,19 @@ TEST(Detector, SmallAndLargeMarkers) {
     std::vector<double> errs;
     for (int f = 0; f < 4; ++f) {
       const auto placed = random_markers(r, rng, 4, length, 2.4, 1.4, 0.0);
-      const auto found = detector.detect(
-          camera_frame(r, placed, 500 + static_cast<std::uint64_t>(f)), &r.camera().model);
+      const auto found =
+          detector.detect(camera_frame(r, placed, 500 + static_cast<std::uint64_t>(f)), &r.camera().model);
       EXPECT_EQ(found.size(), placed.size());
       for (const auto& pm : placed) {
         const auto truth = r.truth_of(pm.marker, pm.poses[0]);
-        const double width = std::hypot(truth.corners_px[1].x - truth.corners_px[0].x,
-                                        truth.corners_px[1].y - truth.corners_px[0].y);
+        const double width =
+            std::hypot(truth.corners_px[1].x - truth.corners_px[0].x, truth.corners_px[1].y - truth.corners_px[0].y);
         EXPECT_TRUE(length < 0.1 ? width < 50 : width > 150) << width;
         for (const auto& d : found) {
           if (d.id != pm.marker.id) continue;
           for (std::size_t i = 0; i < 4; ++i) {
-            errs.push_back(std::hypot(d.corners_px[i].x - truth.corners_px[i].x,
-                                      d.corners_px[i].y - truth.corners_px[i].y));
+            errs.push_back(
+                std::hypot(d.corners_px[i].x - truth.corners_px[i].x, d.corners_px[i].y - truth.corners_px[i].y));
           }
         }
       }
@@ -201,7 +195,8 @@ Found compare_with_default_detector(Scene scene, const ips::DetectorOptions& opt
 
 TEST(Detector, SmallMarkersAreAllFoundWithDefaultSettings) {
   const Found n = compare_with_default_detector(scene_without_markers(), {}, 0.075, 21);
-  std::printf("[ detect  ] 7.5 cm markers: %d placed, reference %d, ours (defaults) %d\n", n.placed, n.reference, n.ours);
+  std::printf("[ detect  ] 7.5 cm markers: %d placed, reference %d, ours (defaults) %d\n", n.placed, n.reference,
+              n.ours);
   EXPECT_GE(n.placed, 50);
   EXPECT_EQ(n.ours, n.placed);
   EXPECT_EQ(n.extra, 0);
@@ -292,7 +287,8 @@ TEST(Detector, DimLowContrastFramesWithTwoThresholdWindowsMatchTheDefaultDetecto
   ips::DetectorOptions two;
   two.threshold_windows = {9, 19};
   const Found n = compare_with_default_detector(dim, two, 0.20, 22);
-  std::printf("[ detect  ] dim frames: %d placed, reference %d, ours with windows {9, 19} %d\n", n.placed, n.reference, n.ours);
+  std::printf("[ detect  ] dim frames: %d placed, reference %d, ours with windows {9, 19} %d\n", n.placed, n.reference,
+              n.ours);
   EXPECT_GE(n.placed, 50);
   EXPECT_GE(n.ours, n.reference);
   EXPECT_EQ(n.extra, 0);
@@ -328,8 +324,8 @@ TEST(Detector, NoFalsePositivesOnMarkerFreeFrames) {
     for (const char* name : {"red", "white", "black"}) {
       const CameraRenderer r(scene, scene.camera_index(name));
       for (int f = 0; f < (name[0] == 'r' ? 18 : 16); ++f, ++frames) {
-        const auto found = detector.detect(
-            camera_frame(r, {}, 1000 + static_cast<std::uint64_t>(f)), &r.camera().model);
+        const auto found =
+            detector.detect(camera_frame(r, {}, 1000 + static_cast<std::uint64_t>(f)), &r.camera().model);
         false_positives += found.size();
       }
     }
@@ -343,8 +339,8 @@ TEST(Detector, NoFalsePositivesOnMarkerFreeFrames) {
       for (auto& p : placed) {
         while (contains_4x4_marker(p.marker.id)) p.marker.id = (p.marker.id + 101) % 250;
       }
-      const auto found = detector.detect(
-          camera_frame(r, placed, 2000 + static_cast<std::uint64_t>(f)), &r.camera().model);
+      const auto found =
+          detector.detect(camera_frame(r, placed, 2000 + static_cast<std::uint64_t>(f)), &r.camera().model);
       false_positives += found.size();
     }
   }
@@ -360,8 +356,7 @@ TEST(Detector, OtherDictionaries) {
   for (auto& p : placed) p.marker.id %= 50;
   ips::DetectorOptions o;
   o.dictionary = "DICT_5X5_50";
-  EXPECT_EQ(ips::Detector(o).detect(camera_frame(r, placed, 9), &r.camera().model).size(),
-            placed.size());
+  EXPECT_EQ(ips::Detector(o).detect(camera_frame(r, placed, 9), &r.camera().model).size(), placed.size());
   // The 4x4 detector sees none of them.
   EXPECT_EQ(ips::Detector().detect(camera_frame(r, placed, 9)).size(), 0u);
 }

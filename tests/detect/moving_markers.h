@@ -86,16 +86,14 @@ struct Sequence {
 inline double corner_error(const ips::MarkerDetection& d, const ips::sim::MarkerTruth& t) {
   double e = 0;
   for (std::size_t k = 0; k < 4; ++k)
-    e = std::max(e, std::hypot(d.corners_px[k].x - t.corners_px[k].x,
-                               d.corners_px[k].y - t.corners_px[k].y));
+    e = std::max(e, std::hypot(d.corners_px[k].x - t.corners_px[k].x, d.corners_px[k].y - t.corners_px[k].y));
   return e;
 }
 
 inline double side_px(const ips::sim::MarkerTruth& t) {
   double s = 0;
   for (std::size_t k = 0; k < 4; ++k)
-    s += std::hypot(t.corners_px[(k + 1) % 4].x - t.corners_px[k].x,
-                    t.corners_px[(k + 1) % 4].y - t.corners_px[k].y);
+    s += std::hypot(t.corners_px[(k + 1) % 4].x - t.corners_px[k].x, t.corners_px[(k + 1) % 4].y - t.corners_px[k].y);
   return s / 4;
 }
 
@@ -107,14 +105,12 @@ inline const ips::MarkerDetection* find(const std::vector<ips::MarkerDetection>&
 
 // Every reported marker is a true one at its true corners (nothing the truth does not have).
 inline void expect_true_markers(const std::vector<ips::MarkerDetection>& found,
-                         const std::vector<ips::sim::MarkerTruth>& truth, int f) {
+                                const std::vector<ips::sim::MarkerTruth>& truth, int f) {
   for (const auto& d : found) {
-    const auto t =
-        std::find_if(truth.begin(), truth.end(), [&](const auto& x) { return x.id == d.id; });
+    const auto t = std::find_if(truth.begin(), truth.end(), [&](const auto& x) { return x.id == d.id; });
     ASSERT_NE(t, truth.end()) << "frame " << f << ": marker " << d.id << " is not in the scene";
     // 0.5 px for 20 cm markers; 1 px for 7.5 cm ones at the edge of the view (24-35 px).
-    EXPECT_LT(corner_error(d, *t), side_px(*t) > 40 ? 0.5 : 1.0)
-        << "frame " << f << " marker " << d.id;
+    EXPECT_LT(corner_error(d, *t), side_px(*t) > 40 ? 0.5 : 1.0) << "frame " << f << " marker " << d.id;
   }
 }
 

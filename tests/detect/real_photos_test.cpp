@@ -19,8 +19,7 @@
 
 namespace {
 
-const std::filesystem::path kPhotos =
-    std::filesystem::path(IPS_CONFIG_DIR) / ".." / "tests" / "data" / "real_photos";
+const std::filesystem::path kPhotos = std::filesystem::path(IPS_CONFIG_DIR) / ".." / "tests" / "data" / "real_photos";
 
 struct Photo {
   std::string file, dictionary;
@@ -43,9 +42,7 @@ struct Extra {
 };
 const std::vector<Extra> kCheckedExtras = {};
 
-cv::Point2f centre(const std::vector<cv::Point2f>& q) {
-  return (q[0] + q[1] + q[2] + q[3]) * 0.25f;
-}
+cv::Point2f centre(const std::vector<cv::Point2f>& q) { return (q[0] + q[1] + q[2] + q[3]) * 0.25f; }
 
 TEST(RealPhotos, FindsEveryMarkerOpenCvFindsWithAgreeingCornersAndNothingElse) {
   const auto list = photos();
@@ -76,10 +73,9 @@ TEST(RealPhotos, FindsEveryMarkerOpenCvFindsWithAgreeingCornersAndNothingElse) {
       bool hit = false;
       for (std::size_t k = 0; k < ours.size() && !hit; ++k) {
         const auto& d = ours[k];
-        const cv::Point2f dc(static_cast<float>((d.corners_px[0].x + d.corners_px[1].x +
-                                                 d.corners_px[2].x + d.corners_px[3].x) / 4),
-                             static_cast<float>((d.corners_px[0].y + d.corners_px[1].y +
-                                                 d.corners_px[2].y + d.corners_px[3].y) / 4));
+        const cv::Point2f dc(
+            static_cast<float>((d.corners_px[0].x + d.corners_px[1].x + d.corners_px[2].x + d.corners_px[3].x) / 4),
+            static_cast<float>((d.corners_px[0].y + d.corners_px[1].y + d.corners_px[2].y + d.corners_px[3].y) / 4));
         if (d.id != ids[i] || cv::norm(dc - c) > 0.3 * side) continue;
         hit = true;
         used[k] = true;
@@ -89,31 +85,30 @@ TEST(RealPhotos, FindsEveryMarkerOpenCvFindsWithAgreeingCornersAndNothingElse) {
           EXPECT_LT(e, 1.5 + 0.01 * side) << "id " << ids[i] << " corner " << j;
         }
       }
-      EXPECT_TRUE(hit) << "missed id " << ids[i] << " at (" << c.x << ", " << c.y << "), "
-                       << side << " px";
+      EXPECT_TRUE(hit) << "missed id " << ids[i] << " at (" << c.x << ", " << c.y << "), " << side << " px";
       found += hit;
     }
     for (std::size_t k = 0; k < ours.size(); ++k) {
       if (used[k]) continue;
-      const bool checked = std::any_of(kCheckedExtras.begin(), kCheckedExtras.end(), [&](const Extra& e) {
-        return p.file == e.file && ours[k].id == e.id;
-      });
+      const bool checked = std::any_of(kCheckedExtras.begin(), kCheckedExtras.end(),
+                                       [&](const Extra& e) { return p.file == e.file && ours[k].id == e.id; });
       ++extra;
       EXPECT_TRUE(checked) << "id " << ours[k].id << " at (" << ours[k].corners_px[0].x << ", "
                            << ours[k].corners_px[0].y << ") is not found by OpenCV";
     }
-    std::printf("[ photos  ] %-30s %4dx%-4d OpenCV %2zu, ips %2zu (of OpenCV's %2d, extra %d)\n",
-                p.file.c_str(), gray.cols, gray.rows, ids.size(), ours.size(), found, extra);
+    std::printf("[ photos  ] %-30s %4dx%-4d OpenCV %2zu, ips %2zu (of OpenCV's %2d, extra %d)\n", p.file.c_str(),
+                gray.cols, gray.rows, ids.size(), ours.size(), found, extra);
     reference_total += static_cast<int>(ids.size());
     found_total += found;
     extra_total += extra;
   }
   std::sort(corner_diff.begin(), corner_diff.end());
   if (!corner_diff.empty()) {
-    std::printf("[ photos  ] total: OpenCV %d, ips found %d of them, %d extra; corner difference to "
-                "OpenCV+cornerSubPix median %.3f px, p95 %.3f, max %.3f\n",
-                reference_total, found_total, extra_total, corner_diff[corner_diff.size() / 2],
-                corner_diff[corner_diff.size() * 95 / 100], corner_diff.back());
+    std::printf(
+        "[ photos  ] total: OpenCV %d, ips found %d of them, %d extra; corner difference to "
+        "OpenCV+cornerSubPix median %.3f px, p95 %.3f, max %.3f\n",
+        reference_total, found_total, extra_total, corner_diff[corner_diff.size() / 2],
+        corner_diff[corner_diff.size() * 95 / 100], corner_diff.back());
   }
   EXPECT_EQ(found_total, reference_total);
   EXPECT_EQ(extra_total, 0);

@@ -16,8 +16,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/aruco.hpp>
 
-#include "ips/detect/detector.h"
 #include "ips/capture/jpeg_decoder.h"
+#include "ips/detect/detector.h"
 #include "ips/sim/renderer.h"
 
 namespace {
@@ -42,8 +42,8 @@ constexpr int kFrames = kSanitizedRun ? 2 : 6;
 double side_px(const ips::sim::MarkerTruth& t) {
   double s = 0;
   for (std::size_t i = 0; i < 4; ++i) {
-    s += std::hypot(t.corners_px[(i + 1) % 4].x - t.corners_px[i].x,
-                    t.corners_px[(i + 1) % 4].y - t.corners_px[i].y) / 4;
+    s += std::hypot(t.corners_px[(i + 1) % 4].x - t.corners_px[i].x, t.corners_px[(i + 1) % 4].y - t.corners_px[i].y) /
+         4;
   }
   return s;
 }
@@ -126,17 +126,18 @@ TEST(SmallMarkers, AllFoundAtTheEdgeOfTheFisheyeViewWithDefaultSettings) {
       }
       ++ours_n;
       for (std::size_t i = 0; i < 4; ++i) {
-        max_err = std::max(max_err, std::hypot(it->corners_px[i].x - t.corners_px[i].x,
-                                               it->corners_px[i].y - t.corners_px[i].y));
+        max_err = std::max(
+            max_err, std::hypot(it->corners_px[i].x - t.corners_px[i].x, it->corners_px[i].y - t.corners_px[i].y));
       }
     }
     for (const auto& d : ours) {
       extra += std::none_of(placed.begin(), placed.end(), [&](const auto& pm) { return pm.marker.id == d.id; });
     }
   }
-  std::printf("[ small   ] %d markers of 7.5 cm, %.1f-%.1f px, edges 30-45 deg off the image axes: "
-              "reference %d, ours (defaults) %d, extra %d, largest corner error %.2f px\n",
-              placed_n, min_side, max_side, reference_n, ours_n, extra, max_err);
+  std::printf(
+      "[ small   ] %d markers of 7.5 cm, %.1f-%.1f px, edges 30-45 deg off the image axes: "
+      "reference %d, ours (defaults) %d, extra %d, largest corner error %.2f px\n",
+      placed_n, min_side, max_side, reference_n, ours_n, extra, max_err);
   EXPECT_GE(placed_n, 8 * kFrames);
   EXPECT_LT(min_side, kSanitizedRun ? 26.0 : 25.0);  // the periphery really was reached (2 frames under the sanitizers)
   EXPECT_EQ(ours_n, placed_n);

@@ -12,10 +12,10 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/detect/detector.h"
-#include "ips/core/error.h"
 #include "ips/capture/jpeg_decoder.h"
 #include "ips/capture/jpeg_region_decoder.h"
+#include "ips/core/error.h"
+#include "ips/detect/detector.h"
 #include "ips/sim/renderer.h"
 #include "moving_markers.h"
 
@@ -44,18 +44,11 @@ TEST(Tracker, MarkerAppearingMidSequenceIsAcquiredWithinThePeriod) {
   const auto& C = r.camera().position;
   Sequence seq{r, {}};
   seq.movers.push_back({.id = 3, .x = C.x() - 0.6, .y = C.y() - 0.3, .vx = 1.0, .turn = 1.0});
-  seq.movers.push_back({.id = 11,
-                        .x = C.x() + 0.5,
-                        .y = C.y() + 0.4,
-                        .vy = -0.3,
-                        .from = 7});  // worst case: next full at 12
   seq.movers.push_back(
-      {.id = 25, .x = C.x() - 0.9, .y = C.y() + 0.5, .vx = 0.5, .from = 11});  // best: full at 12
-  seq.movers.push_back({.id = 42,
-                        .length = 0.075,
-                        .x = C.x() + 1.6,
-                        .y = C.y() - 0.8,
-                        .from = 14});  // small, at the edge
+      {.id = 11, .x = C.x() + 0.5, .y = C.y() + 0.4, .vy = -0.3, .from = 7});  // worst case: next full at 12
+  seq.movers.push_back({.id = 25, .x = C.x() - 0.9, .y = C.y() + 0.5, .vx = 0.5, .from = 11});  // best: full at 12
+  seq.movers.push_back(
+      {.id = 42, .length = 0.075, .x = C.x() + 1.6, .y = C.y() - 0.8, .from = 14});  // small, at the edge
   ips::TrackerOptions opt;
   const int period = opt.full_search_period;
   ips::DetectionTracker tracker(opt, 0);
@@ -76,10 +69,9 @@ TEST(Tracker, MarkerAppearingMidSequenceIsAcquiredWithinThePeriod) {
   }
   for (const auto& m : seq.movers) {
     ASSERT_TRUE(acquired.count(m.id)) << "marker " << m.id << " never acquired";
-    EXPECT_LE(acquired[m.id] - m.from + 1, period)
-        << "marker " << m.id << " appeared at frame " << m.from;
+    EXPECT_LE(acquired[m.id] - m.from + 1, period) << "marker " << m.id << " appeared at frame " << m.from;
   }
-  EXPECT_EQ(acquired[11], 12);  // not before the next full search: the bound is reached
+  EXPECT_EQ(acquired[11], 12);                  // not before the next full search: the bound is reached
   EXPECT_GE(roi_frames, 26 - 26 / period - 2);  // nearly every other frame searched ROIs only
 }
 
@@ -90,13 +82,7 @@ TEST(Tracker, MarkerThatJumpsIsReacquiredOnTheSameFrame) {
   const CameraRenderer r(scene, scene.camera_index("red"));
   const auto& C = r.camera().position;
   Sequence seq{r, {}};
-  seq.movers.push_back({.id = 7,
-                        .x = C.x() - 0.5,
-                        .y = C.y(),
-                        .vx = 0.8,
-                        .jump_at = 9,
-                        .jump_x = 0.3,
-                        .jump_y = 0.6});
+  seq.movers.push_back({.id = 7, .x = C.x() - 0.5, .y = C.y(), .vx = 0.8, .jump_at = 9, .jump_x = 0.3, .jump_y = 0.6});
   seq.movers.push_back({.id = 8, .x = C.x() + 0.8, .y = C.y() - 0.4, .vy = 0.5});
   ips::DetectionTracker tracker({}, 0);
   ips::Detector detector;
@@ -121,11 +107,9 @@ TEST(Tracker, GivesTheFullSearchMarkersAndCorners) {
   Sequence seq{r, {}};
   seq.movers.push_back({.id = 1, .x = C.x() - 0.8, .y = C.y() - 0.4, .vx = 1.0, .turn = 0.5});
   seq.movers.push_back({.id = 2, .x = C.x() + 0.6, .y = C.y() + 0.3, .vx = -0.7, .vy = -0.7});
-  seq.movers.push_back(
-      {.id = 5, .x = C.x(), .y = C.y() + 0.45, .vy = -0.2, .yaw = 1.0, .turn = -2.0});
+  seq.movers.push_back({.id = 5, .x = C.x(), .y = C.y() + 0.45, .vy = -0.2, .yaw = 1.0, .turn = -2.0});
   seq.movers.push_back({.id = 9, .x = C.x() + 1.0, .y = C.y() - 0.5});
-  seq.movers.push_back(
-      {.id = 14, .length = 0.075, .x = C.x() - 1.2, .y = C.y() + 0.5, .vx = 0.3, .until = 10});
+  seq.movers.push_back({.id = 14, .length = 0.075, .x = C.x() - 1.2, .y = C.y() + 0.5, .vx = 0.3, .until = 10});
   ips::DetectionTracker tracker({}, 3);
   ips::Detector tracked_detector, full_detector;
   const ips::CameraModel& cam = r.camera().model;
@@ -142,16 +126,14 @@ TEST(Tracker, GivesTheFullSearchMarkersAndCorners) {
       const auto* t = find(tracked, d.id);
       ASSERT_NE(t, nullptr) << "frame " << f << " marker " << d.id;
       for (std::size_t k = 0; k < 4; ++k) {
-        EXPECT_NEAR(t->corners_px[k].x, d.corners_px[k].x, 0.05)
-            << "frame " << f << " marker " << d.id;
-        EXPECT_NEAR(t->corners_px[k].y, d.corners_px[k].y, 0.05)
-            << "frame " << f << " marker " << d.id;
+        EXPECT_NEAR(t->corners_px[k].x, d.corners_px[k].x, 0.05) << "frame " << f << " marker " << d.id;
+        EXPECT_NEAR(t->corners_px[k].y, d.corners_px[k].y, 0.05) << "frame " << f << " marker " << d.id;
       }
       ++compared;
     }
   }
   EXPECT_GE(compared, 18 * 4 + 9);
-  EXPECT_EQ(missed, 0);  // the full search finds every marker (truth), so tracking does too
+  EXPECT_EQ(missed, 0);                             // the full search finds every marker (truth), so tracking does too
   EXPECT_LE(tracker.counters().full_searches, 5u);  // frames 0, 3, 9, 15 (+ the marker leaving)
 }
 
@@ -179,13 +161,16 @@ TEST(Tracker, RefineKnownGivesTheFullSearchCornersAndRefusesWhatItCannotVerify) 
       ips::MarkerDetection p = d;
       for (auto& q : p.corners_px) {
         const double x = q.x - c.x, y = q.y - c.y;
-        q = {c.x + dx + x * std::cos(turn) - y * std::sin(turn),
-             c.y + dy + x * std::sin(turn) + y * std::cos(turn)};
+        q = {c.x + dx + x * std::cos(turn) - y * std::sin(turn), c.y + dy + x * std::sin(turn) + y * std::cos(turn)};
       }
       return p;
     };
-    for (const auto& [dx, dy, turn] : {std::tuple{0.0, 0.0, 0.0}, {1.5, -1.0, 0.0}, {-1.0, 1.0, 0.017}, {-2.0, 1.5, 0.0}, {0.0, 0.0, 0.035},
-                                        {1.0, 1.0, -0.017}}) {
+    for (const auto& [dx, dy, turn] : {std::tuple{0.0, 0.0, 0.0},
+                                       {1.5, -1.0, 0.0},
+                                       {-1.0, 1.0, 0.017},
+                                       {-2.0, 1.5, 0.0},
+                                       {0.0, 0.0, 0.035},
+                                       {1.0, 1.0, -0.017}}) {
       ips::MarkerDetection out;
       ASSERT_TRUE(detector.refine_known(gray, moved(dx, dy, turn), whole, &cam, out))
           << "marker " << d.id << " predicted " << dx << ", " << dy << " px off, turned " << turn;
@@ -234,9 +219,7 @@ TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
   const Scene scene = test_scene();
   const CameraRenderer r(scene, scene.camera_index("red"));
   const auto& C = r.camera().position;
-  Sequence seq{r,
-               {{.id = 4, .x = C.x() - 0.3, .y = C.y(), .vx = 0.5},
-                {.id = 6, .x = C.x() + 0.9, .y = C.y() + 0.5}}};
+  Sequence seq{r, {{.id = 4, .x = C.x() - 0.3, .y = C.y(), .vx = 0.5}, {.id = 6, .x = C.x() + 0.9, .y = C.y() + 0.5}}};
   ips::JpegDecoder full_decoder;
   ips::JpegRegionDecoder region_decoder;
   ips::DetectionTracker tracker;
@@ -249,16 +232,14 @@ TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
     ASSERT_TRUE(full_decoder.decode_gray(jpeg, full));
     const ips::TrackPlan plan = tracker.plan(full.size());
     partial = cv::Mat(full.size(), CV_8UC1, cv::Scalar(0));
-    ASSERT_TRUE(
-        region_decoder.decode(jpeg, partial, plan.full ? std::vector<cv::Rect>{} : plan.rois))
+    ASSERT_TRUE(region_decoder.decode(jpeg, partial, plan.full ? std::vector<cv::Rect>{} : plan.rois))
         << region_decoder.error();
     if (plan.full) {
       EXPECT_EQ(cv::norm(full, partial, cv::NORM_INF), 0.0);
     } else {
       ++roi_frames;
       ASSERT_EQ(plan.rois.size(), 2u);
-      for (const auto& roi : plan.rois)
-        EXPECT_EQ(cv::norm(full(roi), partial(roi), cv::NORM_INF), 0.0);
+      for (const auto& roi : plan.rois) EXPECT_EQ(cv::norm(full(roi), partial(roi), cv::NORM_INF), 0.0);
       // Rows below the lowest ROI were not decoded at all.
       int bottom = 0;
       for (const auto& roi : plan.rois) bottom = std::max(bottom, roi.y + roi.height);

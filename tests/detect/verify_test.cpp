@@ -35,8 +35,8 @@ cv::Mat oblique_marker(int dictionary, int id, double w, double h, double sigma,
   const std::vector<cv::Point2f> dst{o + cv::Point2f(0.12f * W, 0), o + cv::Point2f(0.88f * W, 0),
                                      o + cv::Point2f(W, H), o + cv::Point2f(0, H)};
   cv::Mat image(480, 640, CV_8UC1, cv::Scalar(110));
-  cv::warpPerspective(sheet, image, cv::getPerspectiveTransform(src, dst), image.size(),
-                      cv::INTER_AREA, cv::BORDER_TRANSPARENT);
+  cv::warpPerspective(sheet, image, cv::getPerspectiveTransform(src, dst), image.size(), cv::INTER_AREA,
+                      cv::BORDER_TRANSPARENT);
   cv::GaussianBlur(image, image, cv::Size(), sigma);
   cv::Mat noise(image.size(), CV_16SC1);
   cv::RNG rng(seed);
@@ -74,8 +74,8 @@ TEST(Verify, KeepsGenuineObliqueBlurredMarkers) {
     for (const double sigma : {1.0, 1.6, 2.2}) {
       if (h < 25 && sigma > 2) continue;
       for (const int id : {3, 17, 42, 88}) {
-        const cv::Mat image = oblique_marker(cv::aruco::DICT_4X4_100, id, 75, h, sigma,
-                                             static_cast<unsigned>(id + 100 * cases));
+        const cv::Mat image =
+            oblique_marker(cv::aruco::DICT_4X4_100, id, 75, h, sigma, static_cast<unsigned>(id + 100 * cases));
         ++cases;
         std::vector<std::vector<cv::Point2f>> corners;
         std::vector<int> ids;
@@ -92,8 +92,8 @@ TEST(Verify, KeepsGenuineObliqueBlurredMarkers) {
       }
     }
   }
-  std::printf("[ verify  ] %d oblique blurred markers: OpenCV %d, ips %d, ips without the code check %d\n",
-              cases, opencv, ours, strict_found);
+  std::printf("[ verify  ] %d oblique blurred markers: OpenCV %d, ips %d, ips without the code check %d\n", cases,
+              opencv, ours, strict_found);
   EXPECT_GT(opencv, cases / 2);
   EXPECT_LT(strict_found, ours);  // the code check is what keeps some of them
 }
@@ -123,8 +123,8 @@ TEST(Verify, RefusesSixBySixMarkersReadAsFourByFour) {
     for (const double sigma : {0.6, 1.0, 1.6, 2.2}) {
       for (int id = 0; id < 250; id += 7) {
         if (contains_4x4_marker(id)) continue;
-        const cv::Mat image = oblique_marker(cv::aruco::DICT_6X6_250, id, 75, h, sigma,
-                                             static_cast<unsigned>(id + 1000 * cases));
+        const cv::Mat image =
+            oblique_marker(cv::aruco::DICT_6X6_250, id, 75, h, sigma, static_cast<unsigned>(id + 1000 * cases));
         ++cases;
         false_positives += static_cast<int>(detector.detect(image).size());
       }

@@ -52,7 +52,8 @@ TEST_F(FixedMarkersTest, WarnsOnceWhenTheMedianCrossesAndAgainAfterComingBack) {
   EXPECT_EQ(warned_at, std::vector<int>{5});
   EXPECT_TRUE(monitor.readings(t * kMs)[0].moved);
   // 2.6 cm: under the threshold but above the 80 % "back" level -> still moved, no event.
-  for (int k = 0; k < 20; ++k, t += 100) EXPECT_TRUE(monitor.add(frame(0, t, 7, truth + Eigen::Vector3d(0, 0.026, 0))).empty());
+  for (int k = 0; k < 20; ++k, t += 100)
+    EXPECT_TRUE(monitor.add(frame(0, t, 7, truth + Eigen::Vector3d(0, 0.026, 0))).empty());
   EXPECT_TRUE(monitor.readings(t * kMs)[0].moved);
   // Put back: one "back" event, then a second bump warns again.
   int back = 0, moved = 0;

@@ -12,9 +12,9 @@
 namespace ips {
 
 /// The daemon's fusion before asynchronous fusion (ips/fusion/track_fusion.h): the baseline
-/// track_fusion_test compares against (not in the library: nothing else uses it). Collects per-frame batches from the cameras into frame sets: batches whose capture times
-/// lie within `window_ns` of the set's first batch. A set is complete (returned by add or
-/// poll) when every expected camera has delivered, when a batch arrives that does not fit
+/// track_fusion_test compares against (not in the library: nothing else uses it). Collects per-frame batches from the
+/// cameras into frame sets: batches whose capture times lie within `window_ns` of the set's first batch. A set is
+/// complete (returned by add or poll) when every expected camera has delivered, when a batch arrives that does not fit
 /// (too late or a camera delivering twice), or when `max_wait_ns` of wall time passed since
 /// the set opened. Not thread-safe: owned by the fusion thread.
 class FrameGrouper {
@@ -55,7 +55,7 @@ inline void FrameGrouper::close(std::vector<std::vector<FrameObservations>>& don
 }
 
 inline void FrameGrouper::add(FrameObservations batch, std::int64_t now_ns,
-                       std::vector<std::vector<FrameObservations>>& done) {
+                              std::vector<std::vector<FrameObservations>>& done) {
   poll(now_ns, done);
   const bool fits = !open_.empty() && !open_cameras_.count(batch.camera_index) &&
                     std::llabs(batch.t_mono_ns - first_capture_ns_) <= window_ns_;

@@ -33,8 +33,10 @@ TEST(Fusion, RegistryHasTheFourMethodsAndRefusesUnknownNamesListingThem) {
     (void)find_fusion_method("avg", "ipsd.yaml: fusion.method");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("fusion.method: unknown fusion method 'avg' (known: mean, area, gauss, median)"),
-              std::string::npos) << e.what();
+    EXPECT_NE(
+        std::string(e.what()).find("fusion.method: unknown fusion method 'avg' (known: mean, area, gauss, median)"),
+        std::string::npos)
+        << e.what();
   }
 }
 

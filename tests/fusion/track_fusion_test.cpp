@@ -9,8 +9,8 @@
 #include <numbers>
 #include <random>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "frame_grouper.h"
 
@@ -219,7 +219,8 @@ std::vector<Delivered> circle_frames(double seconds, int slow, std::int64_t slow
       frames.push_back({arrival, frame(cam, t, {obs(1, cam, t, p)})});
     }
   }
-  std::stable_sort(frames.begin(), frames.end(), [](const Delivered& x, const Delivered& y) { return x.arrival < y.arrival; });
+  std::stable_sort(frames.begin(), frames.end(),
+                   [](const Delivered& x, const Delivered& y) { return x.arrival < y.arrival; });
   return frames;
 }
 
@@ -265,9 +266,10 @@ TEST(TrackFusion, MovingMarkerUnsynchronisedCamerasBeatsFrameSetFusion) {
       old_header.push_back(circle_error(m.p_world, newest));
     }
   }
-  std::printf("[ fusion  ] 1 m/s, epochs 0/11/23 ms, 1.5 mm noise: error p95 asynchronous %.2f mm (%zu records), "
-              "frame sets %.2f mm at the record's time / %.2f mm at the header's time (%zu records)\n",
-              1e3 * p95(fresh), fresh.size(), 1e3 * p95(old_record), 1e3 * p95(old_header), old_record.size());
+  std::printf(
+      "[ fusion  ] 1 m/s, epochs 0/11/23 ms, 1.5 mm noise: error p95 asynchronous %.2f mm (%zu records), "
+      "frame sets %.2f mm at the record's time / %.2f mm at the header's time (%zu records)\n",
+      1e3 * p95(fresh), fresh.size(), 1e3 * p95(old_record), 1e3 * p95(old_header), old_record.size());
   EXPECT_LE(p95(fresh), 0.010);
   // One record per frame (after the first 200 ms), not one per set of about two frames.
   EXPECT_GE(static_cast<double>(fresh.size()), 0.97 * static_cast<double>(frames.size()));

@@ -42,16 +42,15 @@ TEST(CameraModel, FisheyeProjectMatchesFormulaAndOpenCV) {
   const auto cam = ips::CameraModel::load(kData / "ou2023/intrinsics_red.yaml");
   const double th = std::atan(0.5);
   const auto& D = cam.D();
-  const double thd = th * (1 + D[0] * std::pow(th, 2) + D[1] * std::pow(th, 4) +
-                           D[2] * std::pow(th, 6) + D[3] * std::pow(th, 8));
+  const double thd =
+      th * (1 + D[0] * std::pow(th, 2) + D[1] * std::pow(th, 4) + D[2] * std::pow(th, 6) + D[3] * std::pow(th, 8));
   const ips::Point2 p = cam.project({0.5, 0.0});
   EXPECT_NEAR(p.x, cam.K()(0, 0) * thd / 0.5 * 0.5 + cam.K()(0, 2), 1e-9);
   EXPECT_NEAR(p.y, cam.K()(1, 2), 1e-9);
 
   std::vector<cv::Point3d> obj{{0.3, -0.7, 1.0}, {-1.2, 0.4, 1.0}, {0.01, 0.02, 1.0}};
   std::vector<cv::Point2d> img;
-  cv::fisheye::projectPoints(obj, img, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(cam.K()),
-                             cv::Mat(cam.D()));
+  cv::fisheye::projectPoints(obj, img, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(cam.K()), cv::Mat(cam.D()));
   for (std::size_t i = 0; i < obj.size(); ++i) {
     const ips::Point2 q = cam.project({obj[i].x, obj[i].y});
     EXPECT_NEAR(q.x, img[i].x, 1e-8);
@@ -88,8 +87,7 @@ void expect_round_trip_over_image(const ips::CameraModel& cam) {
 TEST(CameraModel, FisheyeRoundTripExactOverWholeImage) {
   for (const char* name : {"red", "white", "black"}) {
     SCOPED_TRACE(name);
-    expect_round_trip_over_image(
-        ips::CameraModel::load(kData / (std::string("ou2023/intrinsics_") + name + ".yaml")));
+    expect_round_trip_over_image(ips::CameraModel::load(kData / (std::string("ou2023/intrinsics_") + name + ".yaml")));
   }
 }
 
@@ -107,8 +105,7 @@ TEST(CameraModel, FisheyeUndistortAgreesWithOpenCVInTheCentre) {
 TEST(CameraModel, PinholeRoundTripAndOpenCVProjection) {
   const cv::Matx33d K(1000, 0, 960, 0, 1005, 540, 0, 0, 1);
   for (const std::vector<double>& D :
-       {std::vector<double>{-0.2, 0.05, 0.001, -0.0005},
-        std::vector<double>{-0.25, 0.08, 0.0005, 0.0002, -0.01},
+       {std::vector<double>{-0.2, 0.05, 0.001, -0.0005}, std::vector<double>{-0.25, 0.08, 0.0005, 0.0002, -0.01},
         std::vector<double>{-0.1, 0.02, 0.0003, 0.0001, 0.001, 0.05, -0.01, 0.002}}) {
     SCOPED_TRACE(D.size());
     const ips::CameraModel cam(ips::CameraModel::Kind::kPinhole, {1920, 1080}, K, D);
@@ -125,13 +122,12 @@ TEST(CameraModel, PinholeRoundTripAndOpenCVProjection) {
 }
 
 TEST(CameraModel, ReadsOpenCVFileStorage) {
-  const auto p =
-      write_temp("cv_calib.yml",
-                 "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
-                 "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-                 "   data: [ 700., 0., 640., 0., 701., 360., 0., 0., 1. ]\n"
-                 "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
-                 "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
+  const auto p = write_temp("cv_calib.yml",
+                            "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
+                            "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                            "   data: [ 700., 0., 640., 0., 701., 360., 0., 0., 1. ]\n"
+                            "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
+                            "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
   const auto cam = ips::CameraModel::load(p);
   EXPECT_EQ(cam.kind(), ips::CameraModel::Kind::kPinhole);
   EXPECT_EQ(cam.size(), cv::Size(1280, 720));
@@ -148,13 +144,12 @@ TEST(CameraModel, ReadsOpenCVFileStorage) {
   EXPECT_EQ(fish.kind(), ips::CameraModel::Kind::kFisheye);
   EXPECT_EQ(fish.size().width, 1920);
 
-  const auto bad =
-      write_temp("cv_bad.yml",
-                 "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
-                 "camera_matrix: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
-                 "   data: [ 700., 0., 640., 0. ]\n"
-                 "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
-                 "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
+  const auto bad = write_temp("cv_bad.yml",
+                              "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n"
+                              "camera_matrix: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
+                              "   data: [ 700., 0., 640., 0. ]\n"
+                              "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
+                              "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n");
   EXPECT_NE(expect_input_error(bad).find("camera_matrix"), std::string::npos);
 }
 
@@ -165,28 +160,19 @@ TEST(CameraModel, BadFilesNameTheKey) {
     std::string text;
     const char* key;
   } cases[] = {
-      {"no_model.yaml", "image_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n",
-       "model"},
-      {"bad_model.yaml",
-       "model: fish\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "model"},
-      {"short_k.yaml",
-       "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [1,2,3]\nD: [0,0,0,0]\n", "'K'"},
+      {"no_model.yaml", "image_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "model"},
+      {"bad_model.yaml", "model: fish\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "model"},
+      {"short_k.yaml", "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [1,2,3]\nD: [0,0,0,0]\n", "'K'"},
       {"nan_k.yaml",
        "model: fisheye\nimage_width: 1920\nimage_height: 1080\nK: [.nan, 0, 960, 0, 1000, 540, 0, "
        "0, 1]\nD: [0,0,0,0]\n",
        "'K'"},
-      {"short_d.yaml",
-       "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0]\n", "'D'"},
-      {"pinhole_d.yaml",
-       "model: pinhole\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0,0,0]\n",
+      {"short_d.yaml", "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0]\n", "'D'"},
+      {"pinhole_d.yaml", "model: pinhole\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [0,0,0,0,0,0]\n",
        "'D'"},
-      {"text_d.yaml",
-       "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [a,0,0,0]\n",
-       "'D'"},
-      {"no_width.yaml", "model: fisheye\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n",
-       "image_width"},
-      {"neg_width.yaml",
-       "model: fisheye\nimage_width: -5\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n",
+      {"text_d.yaml", "model: fisheye\nimage_width: 1920\nimage_height: 1080\n" + good_k + "D: [a,0,0,0]\n", "'D'"},
+      {"no_width.yaml", "model: fisheye\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n", "image_width"},
+      {"neg_width.yaml", "model: fisheye\nimage_width: -5\nimage_height: 1080\n" + good_k + "D: [0,0,0,0]\n",
        "image_width"},
       {"broken.yaml", "model: [fisheye\n", "YAML"},
   };
@@ -196,8 +182,7 @@ TEST(CameraModel, BadFilesNameTheKey) {
     EXPECT_NE(msg.find(c.key), std::string::npos) << msg;
     EXPECT_NE(msg.find(c.name), std::string::npos) << msg;
   }
-  EXPECT_NE(expect_input_error("/nonexistent/cam.yaml").find("/nonexistent/cam.yaml"),
-            std::string::npos);
+  EXPECT_NE(expect_input_error("/nonexistent/cam.yaml").find("/nonexistent/cam.yaml"), std::string::npos);
 }
 
 TEST(CameraModel, ReadsOpenCVXml) {
@@ -232,15 +217,15 @@ TEST(CameraModel, OpenCVFilesOpenCVCannotNavigateAreInputErrors) {
     const char* says;
   } cases[] = {
       {"cv_sequence.yml", "%YAML:1.0caAe\n%Y---\n-", "cv_sequence.yml:1: expected the directive %YAML:1.0"},
-      {"cv_huge_width.yml", "%YAML:1.0\n---\nimage_width: 1e300\nimage_height: 720\n" + matrices,
-       "image_width"},
-      {"cv_inf_height.yml", "%YAML:1.0\n---\nimage_width: 1280\nimage_height: -.Inf\n" + matrices,
-       "image_height"},
+      {"cv_huge_width.yml", "%YAML:1.0\n---\nimage_width: 1e300\nimage_height: 720\n" + matrices, "image_width"},
+      {"cv_inf_height.yml", "%YAML:1.0\n---\nimage_width: 1280\nimage_height: -.Inf\n" + matrices, "image_height"},
       // OpenCV 4.6's reader calls std::terminate on this (a nested key starting with ':'); yaml-cpp
       // reads it (geometry/opencv_yaml.h).
-      {"cv_colon_key.yml", "%YAML:1.0\n---\nm:\n   rows: 3\n   :cols: 3\n", "cv_colon_key.yml: missing key 'camera_matrix'"},
+      {"cv_colon_key.yml", "%YAML:1.0\n---\nm:\n   rows: 3\n   :cols: 3\n",
+       "cv_colon_key.yml: missing key 'camera_matrix'"},
       // ... and loops forever on this one (a second '%' line).
-      {"cv_second_directive.yml", "%YAML:1.0\nimage_width: 640\n%Y---\n   3\n   cols: 3\n", "cv_second_directive.yml:5: YAML error"},
+      {"cv_second_directive.yml", "%YAML:1.0\nimage_width: 640\n%Y---\n   3\n   cols: 3\n",
+       "cv_second_directive.yml:5: YAML error"},
       // OpenCV would allocate 30000 x 30000 doubles (7 GB) before noticing the data is short.
       {"cv_rows_typo.yml",
        "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\ncamera_matrix: !!opencv-matrix\n"

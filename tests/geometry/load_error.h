@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ips/geometry/camera_model.h"
 #include "ips/core/error.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips::test {
 

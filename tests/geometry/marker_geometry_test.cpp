@@ -16,8 +16,7 @@ TEST(LocateMarker, RecoversFrontoParallelMarkerExactly) {
   const auto cam = ips::CameraModel::load(kData / "ou2023/intrinsics_red.yaml");
   const double L = 0.2;
   for (const auto& [X, Y, Z, yaw] :
-       {std::tuple{0.0, 0.0, 2.1, 0.0}, std::tuple{0.8, -0.4, 1.95, 0.7},
-        std::tuple{-1.1, 0.5, 2.0, -2.5}}) {
+       {std::tuple{0.0, 0.0, 2.1, 0.0}, std::tuple{0.8, -0.4, 1.95, 0.7}, std::tuple{-1.1, 0.5, 2.0, -2.5}}) {
     ips::MarkerDetection det;
     det.id = 7;
     // Corners TL, TR, BR, BL in the marker frame (x right, y up as printed); the camera's

@@ -50,7 +50,8 @@ void expect_same_numbers(const ips::CameraModel& cam, const cv::Mat& K, const cv
   ASSERT_EQ(K.total(), 9u);
   for (int i = 0; i < 9; ++i) EXPECT_EQ(cam.K().val[i], K.at<double>(i)) << "K[" << i << "]";
   ASSERT_GE(cam.D().size(), D.total());
-  for (int i = 0; i < static_cast<int>(D.total()); ++i) EXPECT_EQ(cam.D()[static_cast<std::size_t>(i)], D.at<double>(i)) << "D[" << i << "]";
+  for (int i = 0; i < static_cast<int>(D.total()); ++i)
+    EXPECT_EQ(cam.D()[static_cast<std::size_t>(i)], D.at<double>(i)) << "D[" << i << "]";
 }
 
 // A calibration file as OpenCV's calibration sample writes it (extra keys, a 2-channel matrix,
@@ -58,7 +59,8 @@ void expect_same_numbers(const ips::CameraModel& cam, const cv::Mat& K, const cv
 fs::path write_like_calibration_sample(const std::string& name, const ips::CameraModel& cam, int depth, bool fisheye) {
   const fs::path p = scratch(name);
   cv::FileStorage out(p.string(), cv::FileStorage::WRITE);
-  out << "calibration_time" << "Mon Nov 23 22:00:00 2026";
+  out << "calibration_time"
+      << "Mon Nov 23 22:00:00 2026";
   out << "nr_of_frames" << 25 << "image_width" << cam.size().width << "image_height" << cam.size().height;
   out << "board_width" << 9 << "board_height" << 6 << "square_size" << 0.025;
   out << "fix_aspect_ratio" << 1.0 << "flags" << 0 << "fisheye_model" << (fisheye ? 1 : 0);
@@ -76,12 +78,10 @@ fs::path write_like_calibration_sample(const std::string& name, const ips::Camer
 // Every ipsd-form intrinsics file the repository ships, rewritten by OpenCV's writer (doubles at
 // full precision, and floats): CameraModel::load gives exactly the numbers OpenCV's reader gives.
 TEST(OpenCvYaml, FilesOpenCVWroteReadAsOpenCVReadsThem) {
-  const fs::path files[] = {kSource / "calib_data/ou2023/intrinsics_red.yaml",
-                            kSource / "calib_data/ou2023/intrinsics_white.yaml",
-                            kSource / "calib_data/ou2023/intrinsics_black.yaml",
-                            kSource / "config/scenes/lenses/pinhole_wide.yaml",
-                            kSource / "tests/replay/data/intrinsics_red_half.yaml",
-                            kSource / "tests/replay/data/intrinsics_white_half.yaml"};
+  const fs::path files[] = {
+      kSource / "calib_data/ou2023/intrinsics_red.yaml",      kSource / "calib_data/ou2023/intrinsics_white.yaml",
+      kSource / "calib_data/ou2023/intrinsics_black.yaml",    kSource / "config/scenes/lenses/pinhole_wide.yaml",
+      kSource / "tests/replay/data/intrinsics_red_half.yaml", kSource / "tests/replay/data/intrinsics_white_half.yaml"};
   for (const fs::path& src : files) {
     const ips::CameraModel cam = ips::CameraModel::load(src);
     const bool fisheye = cam.kind() == ips::CameraModel::Kind::kFisheye;
@@ -131,10 +131,12 @@ TEST(OpenCvYaml, TheOldGuardsTimeoutIsAPromptInputError) {
 
 TEST(OpenCvYaml, BadFilesNameFileLineAndKey) {
   const std::string head = "%YAML:1.0\n---\nimage_width: 1280\nimage_height: 720\n";
-  const std::string k = "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-                        "   data: [ 700., 0., 640., 0., 700., 360., 0., 0., 1. ]\n";
-  const std::string d = "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
-                        "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n";
+  const std::string k =
+      "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+      "   data: [ 700., 0., 640., 0., 700., 360., 0., 0., 1. ]\n";
+  const std::string d =
+      "distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n"
+      "   data: [ -0.1, 0.01, 0., 0., 0.002 ]\n";
   auto with = [](std::string text, const std::string& from, const std::string& to) {
     text.replace(text.find(from), from.size(), to);
     return text;
@@ -144,21 +146,26 @@ TEST(OpenCvYaml, BadFilesNameFileLineAndKey) {
     std::string text;
     const char* says;
   } cases[] = {
-      {"shape.yml", head + with(k, "rows: 3", "rows: 4"), "shape.yml:9: key 'camera_matrix': rows x cols = 12 but data has 9"},
+      {"shape.yml", head + with(k, "rows: 3", "rows: 4"),
+       "shape.yml:9: key 'camera_matrix': rows x cols = 12 but data has 9"},
       {"huge.yml", head + with(k, "rows: 3", "rows: 30000"), "huge.yml:6: key 'camera_matrix': 30000 x 3 is not"},
-      {"rows_text.yml", head + with(k, "rows: 3", "rows: three"), "rows_text.yml:6: key 'camera_matrix.rows': not a number"},
+      {"rows_text.yml", head + with(k, "rows: 3", "rows: three"),
+       "rows_text.yml:6: key 'camera_matrix.rows': not a number"},
       {"two_channel.yml", head + with(k, "dt: d", "dt: 2f"), "two_channel.yml:8: key 'camera_matrix.dt': '2f'"},
       {"nan.yml", head + with(k, "700.,", ".Nan,"), "nan.yml:9: key 'camera_matrix.data': non-finite"},
       {"word.yml", head + k + with(d, "0.01", "x"), "word.yml:14: key 'distortion_coefficients.data': not a number"},
-      {"float_range.yml", head + with(k, "640.", "1e300") + d, "float_range.yml:9: key 'camera_matrix.data': out of range for dt f"},
+      {"float_range.yml", head + with(k, "640.", "1e300") + d,
+       "float_range.yml:9: key 'camera_matrix.data': out of range for dt f"},
       {"no_data.yml", head + with(k, "   data: [ 700., 0., 640., 0., 700., 360., 0., 0., 1. ]\n", ""),
        "no_data.yml:5: key 'camera_matrix': missing 'data'"},
-      {"nd.yml", head + with(k, "!!opencv-matrix", "!!opencv-nd-matrix"), "nd.yml:5: key 'camera_matrix': expected an !!opencv-matrix"},
+      {"nd.yml", head + with(k, "!!opencv-matrix", "!!opencv-nd-matrix"),
+       "nd.yml:5: key 'camera_matrix': expected an !!opencv-matrix"},
       {"list.yml", head + "camera_matrix: [ 700., 0., 640., 0., 700., 360., 0., 0., 1. ]\n" + d,
        "list.yml:5: key 'camera_matrix': expected an !!opencv-matrix"},
       {"no_k.yml", head + d, "no_k.yml: missing key 'camera_matrix'"},
       {"width.yml", with(head, "1280", "1280.5") + k + d, "width.yml:3: key 'image_width': not an integer"},
-      {"neg.yml", with(head, "720", "-720") + k + d, "neg.yml: key 'image_width'/'image_height': image size must be positive"},
+      {"neg.yml", with(head, "720", "-720") + k + d,
+       "neg.yml: key 'image_width'/'image_height': image size must be positive"},
       {"fx.yml", head + with(k, "700.,", "-700.,") + d, "fx.yml: key 'camera_matrix': focal lengths"},
       {"directive.yml", "%YAML:2.0\n" + head.substr(10) + k + d, "directive.yml:1: expected the directive %YAML:1.0"},
       {"syntax.yml", head + "camera_matrix: [ 1, 2\n", "syntax.yml:"},
@@ -177,11 +184,12 @@ TEST(OpenCvYaml, BadFilesNameFileLineAndKey) {
 // OpenCV's form is also recognised in a plain YAML file without the directive (keys
 // camera_matrix / mtx): read the same way, not by OpenCV.
 TEST(OpenCvYaml, WithoutTheDirective) {
-  const auto cam = ips::CameraModel::load(write_text(
-      "plain.yaml", "img_width: 1920\nimg_height: 1080\nfisheye_model: 1\n"
-                    "mtx: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-                    "   data: [ 1100., 0., 960., 0., 1100., 540., 0., 0., 1. ]\n"
-                    "dist: !!opencv-matrix\n   rows: 1\n   cols: 4\n   dt: d\n   data: [ -0.1, 0.01, -0.02, 0.01 ]\n"));
+  const auto cam = ips::CameraModel::load(
+      write_text("plain.yaml",
+                 "img_width: 1920\nimg_height: 1080\nfisheye_model: 1\n"
+                 "mtx: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                 "   data: [ 1100., 0., 960., 0., 1100., 540., 0., 0., 1. ]\n"
+                 "dist: !!opencv-matrix\n   rows: 1\n   cols: 4\n   dt: d\n   data: [ -0.1, 0.01, -0.02, 0.01 ]\n"));
   EXPECT_EQ(cam.kind(), ips::CameraModel::Kind::kFisheye);
   EXPECT_EQ(cam.size(), cv::Size(1920, 1080));
   EXPECT_EQ(cam.D()[2], -0.02);

@@ -9,8 +9,7 @@
 
 TEST(ThinPrism, ProjectMatchesOpenCVAndUndistortInverts) {
   const cv::Matx33d K(620.0, 0.0, 641.3, 0.0, 621.5, 358.7, 0.0, 0.0, 1.0);
-  const std::vector<double> D{-0.05, 0.01, 0.0004, -0.0003, 0.0, 0.1, 0.0, 0.0,
-                              0.002, -0.0005, -0.0015, 0.0004};
+  const std::vector<double> D{-0.05, 0.01, 0.0004, -0.0003, 0.0, 0.1, 0.0, 0.0, 0.002, -0.0005, -0.0015, 0.0004};
   const ips::CameraModel m(ips::CameraModel::Kind::kPinhole, {1280, 720}, K, D);
   ASSERT_EQ(m.D().size(), 12u);
   std::vector<cv::Point3d> rays;
@@ -27,7 +26,6 @@ TEST(ThinPrism, ProjectMatchesOpenCVAndUndistortInverts) {
     EXPECT_NEAR(n.y, rays[i].y, 1e-9);
   }
   // 12 is accepted, other counts are still refused.
-  EXPECT_THROW(ips::CameraModel(ips::CameraModel::Kind::kPinhole, {1280, 720}, K,
-                                std::vector<double>(10, 0.0)),
+  EXPECT_THROW(ips::CameraModel(ips::CameraModel::Kind::kPinhole, {1280, 720}, K, std::vector<double>(10, 0.0)),
                std::exception);
 }

@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
-#include "test_util.h"
 #include "release_only.h"
+#include "test_util.h"
 
 namespace {
 
@@ -23,9 +23,8 @@ using ips::support::run;
 class AutoChoice : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("ips_auto_choice_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("ips_auto_choice_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -60,12 +59,12 @@ TEST_F(AutoChoice, PublishedPairs) {
   const std::string model = (dir_ / "m.json").string();
   std::string out;
   // Default: heights known -> plane competes with its true (3-D = 2-D) error and wins.
-  ASSERT_EQ(ips({"fit", "--data", ips::test::train40_path(), "--method", "auto", "--folds", "5", "--out", model}, out), 0)
+  ASSERT_EQ(ips({"fit", "--data", ips::test::train40_path(), "--method", "auto", "--folds", "5", "--out", model}, out),
+            0)
       << out;
   for (const auto& [camera, method] : chosen(model)) EXPECT_EQ(method, "plane") << camera << "\n" << out;
   EXPECT_NE(out.find("marker heights known (--heights known, the default): plane competed"), std::string::npos) << out;
-  EXPECT_NE(out.find("red: auto chose 'plane': least 5-fold cross-validated mean 3-D error"), std::string::npos)
-      << out;
+  EXPECT_NE(out.find("red: auto chose 'plane': least 5-fold cross-validated mean 3-D error"), std::string::npos) << out;
   // A config without any marker height: plane cannot be used, so it is not chosen.
   std::ofstream(dir_ / "noheight.yaml") << "cameras:\n  - {name: red, source: file, path: " << dir_.string()
                                         << ", intrinsics: " << IPS_TEST_DATA_DIR
@@ -92,9 +91,9 @@ TEST_F(AutoChoice, PublishedPairs) {
   EXPECT_EQ(chosen(model).at("red"), "plane") << out;
   // Bad values: exit 2, nothing written.
   fs::remove(model);
-  EXPECT_EQ(ips({"fit", "--data", ips::test::train40_path(), "--method", "auto", "--heights", "maybe", "--out", model},
-                out),
-            2)
+  EXPECT_EQ(
+      ips({"fit", "--data", ips::test::train40_path(), "--method", "auto", "--heights", "maybe", "--out", model}, out),
+      2)
       << out;
   EXPECT_NE(out.find("--heights"), std::string::npos) << out;
   EXPECT_EQ(ips({"fit", "--data", ips::test::train40_path(), "--method", "auto", "--heights", "known", "--config",
@@ -112,10 +111,10 @@ TEST_F(AutoChoice, SimulatedPairsTheChoiceServesTheDaemon) {
   const std::string scene = std::string(IPS_CONFIG_DIR) + "/scenes/ou2023.yaml";
   const std::string train = (dir_ / "train.csv").string(), test = (dir_ / "test.csv").string();
   std::string out;
-  ASSERT_EQ(ips({"sim", "collect", "--scene", scene, "--camera", "white", "--points", "30", "--seed", "3",
-                 "--out", train},
-                out),
-            0)
+  ASSERT_EQ(
+      ips({"sim", "collect", "--scene", scene, "--camera", "white", "--points", "30", "--seed", "3", "--out", train},
+          out),
+      0)
       << out;
   ASSERT_EQ(ips({"sim", "collect", "--scene", scene, "--camera", "white", "--points", "20", "--seed", "4",
                  "--tape-noise", "0", "--out", test},
@@ -126,9 +125,9 @@ TEST_F(AutoChoice, SimulatedPairsTheChoiceServesTheDaemon) {
   const char* heights[2] = {"known", "unknown"};
   for (int k = 0; k < 2; ++k) {
     const std::string model = (dir_ / (std::string(heights[k]) + ".json")).string();
-    ASSERT_EQ(ips({"fit", "--data", train, "--method", "auto", "--folds", "5", "--heights", heights[k], "--out", model},
-                  out),
-              0)
+    ASSERT_EQ(
+        ips({"fit", "--data", train, "--method", "auto", "--folds", "5", "--heights", heights[k], "--out", model}, out),
+        0)
         << out;
     const std::string method = chosen(model).at("white");
     EXPECT_EQ(method == "plane", k == 0) << method;

@@ -64,10 +64,8 @@ TEST(CalibCsv, MissingColumnNamesFileLineAndColumn) {
 TEST(CalibCsv, NonNumericValue) {
   EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw\nred,1,2,3,4,5,6\nred,1,abc,3,4,5,6\n"),
             "t.csv:3: column 'yc' (3): 'abc' is not a number");
-  EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw\nred,1,2,3,4,5,6x\n"),
-            "t.csv:2: column 'zw' (7): '6x' is not a number");
-  EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw\nred,1,2,,4,5,6\n"),
-            "t.csv:2: column 'zc' (4): empty value");
+  EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw\nred,1,2,3,4,5,6x\n"), "t.csv:2: column 'zw' (7): '6x' is not a number");
+  EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw\nred,1,2,,4,5,6\n"), "t.csv:2: column 'zc' (4): empty value");
 }
 
 TEST(CalibCsv, NonFiniteValue) {
@@ -85,19 +83,15 @@ TEST(CalibCsv, WrongFieldCount) {
 }
 
 TEST(CalibCsv, EmptyCameraName) {
-  EXPECT_EQ(error_of("xc,yc,zc,xw,yw,zw,camera\n1,2,3,4,5,6,\n"),
-            "t.csv:2: column 'camera' (7): empty camera name");
+  EXPECT_EQ(error_of("xc,yc,zc,xw,yw,zw,camera\n1,2,3,4,5,6,\n"), "t.csv:2: column 'camera' (7): empty camera name");
 }
 
 TEST(CalibCsv, EmptyFileNoRowsDuplicateColumn) {
   EXPECT_NE(error_of("").find("t.csv: empty file"), std::string::npos);
   EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw\n\n"), "t.csv: no data rows after the header");
-  EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw,xc\nred,1,2,3,4,5,6,7\n"),
-            "t.csv:1: column 'xc' appears twice");
+  EXPECT_EQ(error_of("camera,xc,yc,zc,xw,yw,zw,xc\nred,1,2,3,4,5,6,7\n"), "t.csv:1: column 'xc' appears twice");
 }
 
-TEST(CalibCsv, UnreadableFile) {
-  EXPECT_THROW(ips::load_calib_csv("/nonexistent/x.csv"), ips::InputError);
-}
+TEST(CalibCsv, UnreadableFile) { EXPECT_THROW(ips::load_calib_csv("/nonexistent/x.csv"), ips::InputError); }
 
 }  // namespace

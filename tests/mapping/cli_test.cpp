@@ -10,8 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "test_util.h"
 #include "command.h"
+#include "test_util.h"
 
 namespace {
 
@@ -23,16 +23,13 @@ CommandResult run(const std::string& args) { return ips::test::run_program("ips"
 class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("ips_cli_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("ips_cli_test_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  void write(const std::string& name, const std::string& text) const {
-    std::ofstream(dir_ / name) << text;
-  }
+  void write(const std::string& name, const std::string& text) const { std::ofstream(dir_ / name) << text; }
   fs::path dir_;
 };
 
@@ -91,24 +88,20 @@ TEST_F(Cli, CvJsonOnExactDataAndSizes) {
   EXPECT_EQ(r.status, 2) << r.out;
   r = run("cv --data " + path("train.csv") + " --method pr --loo");
   EXPECT_EQ(r.status, 2) << r.out;
-  EXPECT_NE(r.out.find("camera 'a' (5 pairs): method 'pr' needs at least 10"), std::string::npos)
-      << r.out;
+  EXPECT_NE(r.out.find("camera 'a' (5 pairs): method 'pr' needs at least 10"), std::string::npos) << r.out;
 }
 
 TEST_F(Cli, BadCsvExitsTwoNamesThePlaceAndWritesNothing) {
   write("bad.csv", "camera,xc,yc,zc,xw,yw,zw\na,0,0,2,1,2,2\na,1,0,2,2,NaN,2\n");
   CommandResult r = run("fit --data " + path("bad.csv") + " --method rt --out " + path("m.json"));
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.out.find("bad.csv:3: column 'yw' (6): 'NaN' is not a finite number"),
-            std::string::npos)
-      << r.out;
+  EXPECT_NE(r.out.find("bad.csv:3: column 'yw' (6): 'NaN' is not a finite number"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(path("m.json")));
   // Too few rows for the method: named, and nothing written.
   write("train.csv", kTrain);
   r = run("fit --data " + path("train.csv") + " --method pr --out " + path("m.json"));
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.out.find("camera 'a' has 5 pairs; method 'pr' needs at least 10"), std::string::npos)
-      << r.out;
+  EXPECT_NE(r.out.find("camera 'a' has 5 pairs; method 'pr' needs at least 10"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(path("m.json")));
   r = run("fit --data " + path("train.csv") + " --method nope --out " + path("m.json"));
   EXPECT_EQ(r.status, 2);
@@ -128,8 +121,8 @@ TEST_F(Cli, BadModelFileExitsTwo) {
 }
 
 TEST_F(Cli, FitSelectedCamerasOfThePublishedDataAndEvalRefusesMissingOnes) {
-  CommandResult r = run("fit --data " + ips::test::train40_path() +
-                        " --method pr --camera red --camera black --out " + path("m.json"));
+  CommandResult r = run("fit --data " + ips::test::train40_path() + " --method pr --camera red --camera black --out " +
+                        path("m.json"));
   ASSERT_EQ(r.status, 0) << r.out;
   const auto model = nlohmann::json::parse(std::ifstream(path("m.json")));
   EXPECT_EQ(model["format"], "ipsd-model");
@@ -152,8 +145,7 @@ TEST_F(Cli, CompareListsEveryMethodPerCamera) {
   while (std::getline(in, line))
     if (line.rfind("red,", 0) == 0 && ++count["red"] <= 20) text += line + "\n";
   write("train20.csv", text);
-  CommandResult r =
-      run("compare --train " + path("train20.csv") + " --test " + path("train20.csv") + " --json");
+  CommandResult r = run("compare --train " + path("train20.csv") + " --test " + path("train20.csv") + " --json");
   ASSERT_EQ(r.status, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["cameras"].size(), 1u);

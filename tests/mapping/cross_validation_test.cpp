@@ -31,8 +31,7 @@ TEST(CrossValidation, FoldTooSmallForTheMethodIsAnInputError) {
     ips::cross_validate("pr", cam, cam, 3, {});  // training folds of 8 < 10 pairs
     FAIL();
   } catch (const ips::InputError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "method 'pr' needs at least 10 training pairs per fold, a fold has 8");
+    EXPECT_EQ(std::string(e.what()), "method 'pr' needs at least 10 training pairs per fold, a fold has 8");
   }
 }
 

@@ -14,8 +14,8 @@ using Points = std::vector<Eigen::Vector3d>;
 
 // A smooth, mildly nonlinear camera->world map of the size of a lab floor (metres).
 Eigen::Vector3d smooth(const Eigen::Vector3d& c) {
-  return {2.4 + c.x() + 0.05 * std::sin(1.3 * c.y()) + 0.02 * c.x() * c.x(),
-          2.1 - c.y() + 0.04 * std::cos(0.9 * c.x()), 2.2 - c.z() + 0.03 * std::sin(c.x() + c.y())};
+  return {2.4 + c.x() + 0.05 * std::sin(1.3 * c.y()) + 0.02 * c.x() * c.x(), 2.1 - c.y() + 0.04 * std::cos(0.9 * c.x()),
+          2.2 - c.z() + 0.03 * std::sin(c.x() + c.y())};
 }
 
 Points cam_points(std::size_t n, std::uint32_t seed) {
@@ -28,8 +28,7 @@ TEST(Kriging, KiInterpolatesItsTrainingPoints) {
   for (const auto& c : cam) world.push_back(smooth(c));
   auto ki = ips::make_mapper("ki");
   ki->fit(cam, world, {});
-  for (std::size_t i = 0; i < cam.size(); ++i)
-    EXPECT_LT((ki->predict(cam[i]) - world[i]).norm(), 1e-6);
+  for (std::size_t i = 0; i < cam.size(); ++i) EXPECT_LT((ki->predict(cam[i]) - world[i]).norm(), 1e-6);
   // And it generalises: new points inside the hull within a few mm of the truth.
   for (const auto& q : ips::test::random_points(20, {-1.5, -1, 1.95}, {1.5, 1, 2.15}, 22))
     EXPECT_LT((ki->predict(q) - smooth(q)).norm(), 0.01);
@@ -42,8 +41,7 @@ TEST(Kriging, KrDoesNotInterpolateNoisyPointsAndSmoothsThem) {
   Points world, clean;
   for (std::size_t i = 0; i < cam.size(); ++i) {
     clean.push_back(smooth(cam[i]));
-    world.push_back(clean.back() +
-                    Eigen::Vector3d(noise[3 * i], noise[3 * i + 1], noise[3 * i + 2]));
+    world.push_back(clean.back() + Eigen::Vector3d(noise[3 * i], noise[3 * i + 1], noise[3 * i + 2]));
   }
   auto kr = ips::make_mapper("kr");
   auto ki = ips::make_mapper("ki");

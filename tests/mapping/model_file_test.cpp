@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "ips/mapping/calib_data.h"
 #include "ips/core/error.h"
+#include "ips/mapping/calib_data.h"
 #include "test_util.h"
 
 namespace {
@@ -16,8 +16,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path temp_path(const std::string& name) {
-  return fs::temp_directory_path() /
-         ("ips_mapping_test_" + std::to_string(::getpid()) + "_" + name);
+  return fs::temp_directory_path() / ("ips_mapping_test_" + std::to_string(::getpid()) + "_" + name);
 }
 
 void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
@@ -51,8 +50,7 @@ TEST_P(RoundTrip, SaveLoadPredictIsBitIdentical) {
   entry.mapper->fit(cam, world, options);
   entry.training = {{"n", 24}};
   set.cameras.emplace("red", std::move(entry));
-  const fs::path p =
-      temp_path("model_" + std::to_string(std::hash<std::string>{}(GetParam())) + ".json");
+  const fs::path p = temp_path("model_" + std::to_string(std::hash<std::string>{}(GetParam())) + ".json");
   ips::save_model_file(set, p);
   const ips::ModelSet loaded = ips::load_model_file(p);
   fs::remove(p);
@@ -84,16 +82,14 @@ INSTANTIATE_TEST_SUITE_P(EveryMethod, RoundTrip, ::testing::ValuesIn(ips::mapper
 
 TEST(ModelFile, DoublesRoundTripExactly) {
   // nlohmann writes the shortest representation that reads back to the same double.
-  for (double v : {0.1, 1.0 / 3.0, 2.220446049250313e-16, 123456789.123456789, -5e-324,
-                   1.7976931348623157e308}) {
+  for (double v : {0.1, 1.0 / 3.0, 2.220446049250313e-16, 123456789.123456789, -5e-324, 1.7976931348623157e308}) {
     const nlohmann::json j = {{"v", v}};
     EXPECT_EQ(nlohmann::json::parse(j.dump())["v"].get<double>(), v);
   }
 }
 
-const char* kGood =
-    R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":)"
-    R"({"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[1,2,3]},"training":{}}}})";
+const char* kGood = R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":)"
+                    R"({"R":[[1,0,0],[0,1,0],[0,0,1]],"t":[1,2,3]},"training":{}}}})";
 
 TEST(ModelFile, AValidHandWrittenFileLoads) {
   const fs::path p = temp_path("good.json");
@@ -104,9 +100,7 @@ TEST(ModelFile, AValidHandWrittenFileLoads) {
 }
 
 TEST(ModelFile, RefusesBadFilesWithClearErrors) {
-  auto has = [](const std::string& msg, const std::string& part) {
-    return msg.find(part) != std::string::npos;
-  };
+  auto has = [](const std::string& msg, const std::string& part) { return msg.find(part) != std::string::npos; };
   std::string e = load_error("{\"format\": \"ipsd-model\", ");
   EXPECT_TRUE(has(e, "not a valid JSON document")) << e;
   // A number beyond double's range: nlohmann's out_of_range, not a parse_error (found by
@@ -119,8 +113,7 @@ TEST(ModelFile, RefusesBadFilesWithClearErrors) {
   EXPECT_TRUE(has(e, "version 2 is not supported")) << e;
   e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{}})");
   EXPECT_TRUE(has(e, "\"cameras\" must be a non-empty object")) << e;
-  e = load_error(
-      R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"magic","params":{}}}})");
+  e = load_error(R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"magic","params":{}}}})");
   EXPECT_TRUE(has(e, "camera 'red': unknown mapping method 'magic'")) << e;
   e = load_error(
       R"({"format":"ipsd-model","version":1,"cameras":{"red":{"method":"rt","params":{"R":[[1,0,0],[0,1,0],[0,0,1]]}}}})");

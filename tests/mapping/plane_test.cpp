@@ -5,8 +5,8 @@
 
 #include <Eigen/Geometry>
 
-#include "ips/mapping/cross_validation.h"
 #include "ips/core/error.h"
+#include "ips/mapping/cross_validation.h"
 #include "ips/mapping/mapper.h"
 
 #include <nlohmann/json.hpp>
@@ -27,8 +27,7 @@ struct Scene {
 // error (as from the marker-size formula), which moves (xc, yc, zc) along the ray only.
 Scene make_scene(double depth_noise, double k1 = 0.0) {
   Scene s;
-  s.R = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
-         Eigen::AngleAxisd(M_PI + 0.05, Eigen::Vector3d::UnitX()) *
+  s.R = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(M_PI + 0.05, Eigen::Vector3d::UnitX()) *
          Eigen::AngleAxisd(-0.03, Eigen::Vector3d::UnitY()))
             .toRotationMatrix();
   s.t = Eigen::Vector3d(2.4, 2.2, 2.1);

@@ -4,8 +4,8 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
-#include "ips/mapping/calib_data.h"
 #include "ips/core/error.h"
+#include "ips/mapping/calib_data.h"
 #include "ips/mapping/mapper.h"
 
 #include <nlohmann/json.hpp>
@@ -16,8 +16,7 @@ namespace {
 using Points = std::vector<Eigen::Vector3d>;
 
 Eigen::Matrix3d known_rotation() {
-  return (Eigen::AngleAxisd(2.7, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(3.05, Eigen::Vector3d::UnitX()) *
+  return (Eigen::AngleAxisd(2.7, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(3.05, Eigen::Vector3d::UnitX()) *
           Eigen::AngleAxisd(0.04, Eigen::Vector3d::UnitY()))
       .toRotationMatrix();
 }
@@ -88,8 +87,7 @@ TEST(RigidMapper, MirroredDataGivesTheBestProperRotation) {
   const double best = cost(R_hat);
   for (int axis = 0; axis < 3; ++axis)
     for (double angle : {-1e-3, 1e-3}) {
-      const Eigen::Matrix3d Rp =
-          R_hat * Eigen::AngleAxisd(angle, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
+      const Eigen::Matrix3d Rp = R_hat * Eigen::AngleAxisd(angle, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
       EXPECT_LT(best, cost(Rp)) << axis << " " << angle;
     }
   // The points spread least in z, so the best rotation is close to the identity.
@@ -108,8 +106,8 @@ TEST(RigidMapper, CollinearPointsAreRefused) {
 
 Eigen::Vector3d quadratic(const Eigen::Vector3d& p) {
   const double x = p.x(), y = p.y(), z = p.z();
-  return {0.5 + 1.1 * x - 0.2 * y + 0.3 * z + 0.05 * x * y - 0.07 * x * z + 0.02 * y * z +
-              0.04 * x * x - 0.03 * y * y + 0.01 * z * z,
+  return {0.5 + 1.1 * x - 0.2 * y + 0.3 * z + 0.05 * x * y - 0.07 * x * z + 0.02 * y * z + 0.04 * x * x - 0.03 * y * y +
+              0.01 * z * z,
           -1.0 + 0.1 * x + 0.9 * y - 0.4 * z + 0.06 * x * x + 0.08 * y * z,
           2.0 - 0.01 * x + 0.02 * y - 0.95 * z + 0.03 * z * z - 0.04 * x * y};
 }
@@ -148,8 +146,7 @@ TEST(PolynomialMapper, RtPlusPrEqualsPrOnThePublishedData) {
     auto rtpr = ips::make_mapper("rt+pr");
     pr->fit(set.cam, set.world, {});
     rtpr->fit(set.cam, set.world, {});
-    for (const auto& c : set.cam)
-      EXPECT_LT((pr->predict(c) - rtpr->predict(c)).norm(), 1e-9) << set.camera;
+    for (const auto& c : set.cam) EXPECT_LT((pr->predict(c) - rtpr->predict(c)).norm(), 1e-9) << set.camera;
     EXPECT_LT((pr->predict({0.1, 0.2, 2.0}) - rtpr->predict({0.1, 0.2, 2.0})).norm(), 1e-9);
   }
 }

@@ -11,13 +11,12 @@
 namespace ips::test {
 
 /// Uniform points in the box [lo, hi] (deterministic for a seed).
-inline std::vector<Eigen::Vector3d> random_points(std::size_t n, const Eigen::Vector3d& lo,
-                                                  const Eigen::Vector3d& hi, std::uint32_t seed) {
+inline std::vector<Eigen::Vector3d> random_points(std::size_t n, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi,
+                                                  std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::vector<Eigen::Vector3d> pts(n);
   for (auto& p : pts)
-    for (int k = 0; k < 3; ++k)
-      p[k] = lo[k] + (hi[k] - lo[k]) * (static_cast<double>(rng()) / 4294967295.0);
+    for (int k = 0; k < 3; ++k) p[k] = lo[k] + (hi[k] - lo[k]) * (static_cast<double>(rng()) / 4294967295.0);
   return pts;
 }
 

@@ -77,7 +77,8 @@ class DaemonSignalsTest : public ::testing::Test {
     }
     std::string c = "cameras:\n";
     for (const char* name : {"red", "white", "black"})
-      c += std::string("  - {name: ") + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(fps) + "}\n";
+      c += std::string("  - {name: ") + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(fps) +
+           "}\n";
     c += "markers:\n  ids:\n    1: {name: robot1, height: 0.15}\n    2: {height: 0.10}\n";
     c += "model_file: model.json\n";
     c += "fusion: {method: mean, window: 0.02, max_wait: 0.5}\n";
@@ -88,7 +89,8 @@ class DaemonSignalsTest : public ::testing::Test {
          ", ttl: 0, interface: 127.0.0.1, format: json}\n";
     c += "  - {type: mavlink, address: 127.0.0.1, port: " + std::to_string(other_ports_[2]) +
          ", vehicles: [{marker: 1, system_id: 7}]}\n";
-    c += "  - {type: subscriptions, address: 127.0.0.1, port: " + std::to_string(sub_port_) + ", allow: [127.0.0.1/32]}\n";
+    c += "  - {type: subscriptions, address: 127.0.0.1, port: " + std::to_string(sub_port_) +
+         ", allow: [127.0.0.1/32]}\n";
     c += "  - {type: ros2, domain: " + std::to_string(kDomain) + "}\n";
     c += "web: {listen: \"127.0.0.1:" + std::to_string(web_port_) + "\", floor: [0, 0, 4.88, 4.88]}\n";
     c += "status: {interval: 0, socket: " + socket().string() + "}\n";
@@ -101,8 +103,10 @@ class DaemonSignalsTest : public ::testing::Test {
   /// Waits until the log holds `needle` `times` times (the daemon must stay alive meanwhile).
   bool wait_for_log(pid_t pid, const std::string& needle, int times, double seconds) const {
     return test::wait_until(
-        [&] { return count(log(), needle) >= times || test::wait_exit(pid, std::chrono::milliseconds(0)).has_value(); },
-        seconds * test::kTimeScale) &&
+               [&] {
+                 return count(log(), needle) >= times || test::wait_exit(pid, std::chrono::milliseconds(0)).has_value();
+               },
+               seconds * test::kTimeScale) &&
            count(log(), needle) >= times;
   }
   /// Datagrams that reach `rx` within `seconds`.
@@ -115,7 +119,8 @@ class DaemonSignalsTest : public ::testing::Test {
   }
 
   static fs::path* dir_;
-  fs::path log_ = *dir_ / ("ipsd_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + ".log");
+  fs::path log_ =
+      *dir_ / ("ipsd_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + ".log");
   std::uint16_t sub_port_ = 0;
   std::array<std::uint16_t, 3> other_ports_{};  // broadcast, multicast, mavlink
   int web_port_ = 0;
@@ -132,9 +137,10 @@ TEST_F(DaemonSignalsTest, ReloadsTwiceKeepingItsSubscribersThenStopsWithExitZero
 
   // A subscriber for the whole run: the reloads (outputs unchanged) must not drop it.
   const fs::path listen_log = *dir_ / "listen.log";
-  const pid_t listener = test::spawn({test::bin("ips"), "listen", "--subscribe", "127.0.0.1:" + std::to_string(sub_port_),
-                                      "--json", "--lease", "30", "--duration", std::to_string(20 * test::kTimeScale)},
-                                     listen_log);
+  const pid_t listener =
+      test::spawn({test::bin("ips"), "listen", "--subscribe", "127.0.0.1:" + std::to_string(sub_port_), "--json",
+                   "--lease", "30", "--duration", std::to_string(20 * test::kTimeScale)},
+                  listen_log);
   const test::ChildGuard listener_guard(listener);
   ASSERT_TRUE(test::wait_until([&] { return test::read_file(listen_log).find("subscribed at") != std::string::npos; },
                                10 * test::kTimeScale))
@@ -144,7 +150,7 @@ TEST_F(DaemonSignalsTest, ReloadsTwiceKeepingItsSubscribersThenStopsWithExitZero
     ASSERT_EQ(::kill(pid, SIGHUP), 0);
     ASSERT_TRUE(wait_for_log(pid, "reload: applied", reload, 30)) << "reload " << reload << ":\n" << log();
     EXPECT_FALSE(test::wait_exit(pid, std::chrono::milliseconds(0))) << "ipsd died at reload " << reload << ":\n"
-                                                                    << log();
+                                                                     << log();
     EXPECT_GT(datagrams(rx, 1.5), 0) << "no stream after reload " << reload << ":\n" << log();
   }
   // Both reloads kept the subscriptions output and its lease table: the subscriber is still there

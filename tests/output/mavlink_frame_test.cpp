@@ -23,7 +23,8 @@ using namespace ips::mavlink;
 std::uint16_t crc_bitwise(const std::vector<std::uint8_t>& bytes, std::uint16_t crc = 0xFFFF) {
   for (std::uint8_t b : bytes) {
     crc ^= b;
-    for (int i = 0; i < 8; ++i) crc = (crc & 1) ? static_cast<std::uint16_t>((crc >> 1) ^ 0x8408) : static_cast<std::uint16_t>(crc >> 1);
+    for (int i = 0; i < 8; ++i)
+      crc = (crc & 1) ? static_cast<std::uint16_t>((crc >> 1) ^ 0x8408) : static_cast<std::uint16_t>(crc >> 1);
   }
   return crc;
 }
@@ -42,7 +43,7 @@ TEST(MavlinkCrc, CatalogueCheckValueAndBitwiseAgreement) {
 struct Field {
   std::string type;  // uint8_t, uint32_t, uint64_t, float, int8_t
   std::string name;
-  int array = 0;     // 0 = scalar
+  int array = 0;  // 0 = scalar
   bool extension = false;
 };
 
@@ -55,7 +56,8 @@ int type_size(const std::string& t) {
 // mavgen's order: base fields stable-sorted by element size, largest first; extensions after.
 std::vector<Field> wire_order(std::vector<Field> fields) {
   auto ext = std::stable_partition(fields.begin(), fields.end(), [](const Field& f) { return !f.extension; });
-  std::stable_sort(fields.begin(), ext, [](const Field& a, const Field& b) { return type_size(a.type) > type_size(b.type); });
+  std::stable_sort(fields.begin(), ext,
+                   [](const Field& a, const Field& b) { return type_size(a.type) > type_size(b.type); });
   return fields;
 }
 
@@ -93,17 +95,33 @@ std::size_t length_of(const std::vector<Field>& fields) {
 const std::vector<Field> kHeartbeat = {{"uint8_t", "type"},          {"uint8_t", "autopilot"},
                                        {"uint8_t", "base_mode"},     {"uint32_t", "custom_mode"},
                                        {"uint8_t", "system_status"}, {"uint8_t", "mavlink_version"}};
-const std::vector<Field> kVisionPositionEstimate = {
-    {"uint64_t", "usec"}, {"float", "x"},     {"float", "y"},   {"float", "z"},
-    {"float", "roll"},    {"float", "pitch"}, {"float", "yaw"}, {"float", "covariance", 21, true},
-    {"uint8_t", "reset_counter", 0, true}};
-const std::vector<Field> kOdometry = {
-    {"uint64_t", "time_usec"},     {"uint8_t", "frame_id"},          {"uint8_t", "child_frame_id"},
-    {"float", "x"},                {"float", "y"},                   {"float", "z"},
-    {"float", "q", 4},             {"float", "vx"},                  {"float", "vy"},
-    {"float", "vz"},               {"float", "rollspeed"},           {"float", "pitchspeed"},
-    {"float", "yawspeed"},         {"float", "pose_covariance", 21}, {"float", "velocity_covariance", 21},
-    {"uint8_t", "reset_counter", 0, true}, {"uint8_t", "estimator_type", 0, true}, {"int8_t", "quality", 0, true}};
+const std::vector<Field> kVisionPositionEstimate = {{"uint64_t", "usec"},
+                                                    {"float", "x"},
+                                                    {"float", "y"},
+                                                    {"float", "z"},
+                                                    {"float", "roll"},
+                                                    {"float", "pitch"},
+                                                    {"float", "yaw"},
+                                                    {"float", "covariance", 21, true},
+                                                    {"uint8_t", "reset_counter", 0, true}};
+const std::vector<Field> kOdometry = {{"uint64_t", "time_usec"},
+                                      {"uint8_t", "frame_id"},
+                                      {"uint8_t", "child_frame_id"},
+                                      {"float", "x"},
+                                      {"float", "y"},
+                                      {"float", "z"},
+                                      {"float", "q", 4},
+                                      {"float", "vx"},
+                                      {"float", "vy"},
+                                      {"float", "vz"},
+                                      {"float", "rollspeed"},
+                                      {"float", "pitchspeed"},
+                                      {"float", "yawspeed"},
+                                      {"float", "pose_covariance", 21},
+                                      {"float", "velocity_covariance", 21},
+                                      {"uint8_t", "reset_counter", 0, true},
+                                      {"uint8_t", "estimator_type", 0, true},
+                                      {"int8_t", "quality", 0, true}};
 
 TEST(MavlinkDefinitions, CrcExtraRecomputedFromTheMessageDefinitions) {
   EXPECT_EQ(crc_extra("HEARTBEAT", kHeartbeat), kCrcExtraHeartbeat);

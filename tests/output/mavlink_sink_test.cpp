@@ -92,9 +92,9 @@ TEST(MavlinkSink, NodeMavlinkDecodesEveryFieldAsSent) {
   with_control.push_back(frames[1]);
   with_control.back()[12] ^= 0x01;
   std::string error;
-  const auto doc = test::decode_mavlink(with_control, std::filesystem::temp_directory_path() /
-                                                    ("mavlink_sink_" + std::to_string(::getpid()) + ".bin"),
-                                        error);
+  const auto doc = test::decode_mavlink(
+      with_control, std::filesystem::temp_directory_path() / ("mavlink_sink_" + std::to_string(::getpid()) + ".bin"),
+      error);
   ASSERT_TRUE(doc) << error;
   EXPECT_EQ((*doc)["crc_errors"], 1);  // the control, and only it
   const auto& packets = (*doc)["packets"];
@@ -123,17 +123,36 @@ TEST(MavlinkSink, NodeMavlinkDecodesEveryFieldAsSent) {
     auto fl = [&](const nlohmann::json& v) { return test::json_float(v); };
     auto expect_pose_covariance = [&](const nlohmann::json& c) {
       ASSERT_EQ(c.size(), 21u);
-      const double expected[21] = {want.cov[0][0], want.cov[0][1], want.cov[0][2], 0, 0, 0, want.cov[1][1],
-                                   want.cov[1][2], 0, 0, 0, want.cov[2][2], 0, 0, 0, att_var, 0, 0, att_var, 0,
+      const double expected[21] = {want.cov[0][0],
+                                   want.cov[0][1],
+                                   want.cov[0][2],
+                                   0,
+                                   0,
+                                   0,
+                                   want.cov[1][1],
+                                   want.cov[1][2],
+                                   0,
+                                   0,
+                                   0,
+                                   want.cov[2][2],
+                                   0,
+                                   0,
+                                   0,
+                                   att_var,
+                                   0,
+                                   0,
+                                   att_var,
+                                   0,
                                    att_var};
-      for (int k = 0; k < 21; ++k) EXPECT_FLOAT_EQ(fl(c[k]), static_cast<float>(expected[k])) << "covariance[" << k << "]";
+      for (int k = 0; k < 21; ++k)
+        EXPECT_FLOAT_EQ(fl(c[k]), static_cast<float>(expected[k])) << "covariance[" << k << "]";
     };
     const std::uint64_t usec = static_cast<std::uint64_t>(d.capture_realtime_ns / 1000);
     switch (h.msgid) {
       case mavlink::kMsgHeartbeat:
         EXPECT_EQ(p["name"], "HEARTBEAT");
-        EXPECT_EQ(f["type"], 18);       // MAV_TYPE_ONBOARD_CONTROLLER
-        EXPECT_EQ(f["autopilot"], 8);   // MAV_AUTOPILOT_INVALID
+        EXPECT_EQ(f["type"], 18);      // MAV_TYPE_ONBOARD_CONTROLLER
+        EXPECT_EQ(f["autopilot"], 8);  // MAV_AUTOPILOT_INVALID
         EXPECT_EQ(f["base_mode"], 0);
         EXPECT_EQ(f["custom_mode"], 0);
         EXPECT_EQ(f["system_status"], 4);  // MAV_STATE_ACTIVE

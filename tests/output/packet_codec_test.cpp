@@ -51,7 +51,7 @@ TEST(PacketCodec, BinaryBytesAreLittleEndianAtDocumentedOffsets) {
   EXPECT_EQ(bytes[3], 'D');
   EXPECT_EQ(bytes[4], 1);  // version 1, LE
   EXPECT_EQ(bytes[5], 0);
-  EXPECT_EQ(bytes[6], 0);  // flags
+  EXPECT_EQ(bytes[6], 0);     // flags
   EXPECT_EQ(bytes[8], 0x04);  // sequence 0x01020304 LE
   EXPECT_EQ(bytes[9], 0x03);
   EXPECT_EQ(bytes[10], 0x02);
@@ -238,13 +238,15 @@ TEST(PacketCodec, FuzzTenThousandDatagramsNeverCrashTheDecoder) {
       }
       case 1: {  // valid binary with a few flipped bytes / a changed length
         b = bin;
-        for (int k = 0; k < 1 + static_cast<int>(rng() % 4); ++k) b[rng() % b.size()] = static_cast<std::uint8_t>(rng());
+        for (int k = 0; k < 1 + static_cast<int>(rng() % 4); ++k)
+          b[rng() % b.size()] = static_cast<std::uint8_t>(rng());
         if (rng() % 3 == 0) b.resize(rng() % (b.size() + 50));
         break;
       }
       case 2: {  // valid JSON with flipped characters
         b.assign(js.begin(), js.end());
-        for (int k = 0; k < 1 + static_cast<int>(rng() % 4); ++k) b[1 + rng() % (b.size() - 1)] = static_cast<std::uint8_t>(rng() % 128);
+        for (int k = 0; k < 1 + static_cast<int>(rng() % 4); ++k)
+          b[1 + rng() % (b.size() - 1)] = static_cast<std::uint8_t>(rng() % 128);
         break;
       }
       default: {  // noise behind a valid binary header prefix

@@ -69,8 +69,8 @@ Datagram update_with(int n, std::uint32_t update_id) {
 TEST(Publisher, SplitsNumbersAndDeliversBothFormats) {
   Receiver bin, json;
   Publisher pub({to(bin.port, WireFormat::kBinary), to(json.port, WireFormat::kJson)});
-  pub.publish(update_with(40, 9));   // binary: 31 + 9 markers
-  pub.publish(update_with(0, 10));   // heartbeat
+  pub.publish(update_with(40, 9));  // binary: 31 + 9 markers
+  pub.publish(update_with(0, 10));  // heartbeat
   for (Receiver* r : {&bin, &json}) {
     const auto got = r->drain();
     ASSERT_GE(got.size(), 3u);
@@ -79,7 +79,7 @@ TEST(Publisher, SplitsNumbersAndDeliversBothFormats) {
     for (const auto& g : got) {
       EXPECT_LE(g.size(), 1199u);
       const Datagram d = decode_datagram(g);
-      EXPECT_EQ(d.sequence, expected_seq++);  // no gaps
+      EXPECT_EQ(d.sequence, expected_seq++);                        // no gaps
       EXPECT_GE(d.publish_realtime_ns, 1'000'000'000'000'000'000);  // stamped with the real clock
       EXPECT_EQ(d.capture_monotonic_ns, 2'000);
       if (d.update == 9) {
@@ -114,7 +114,8 @@ TEST(Publisher, InvalidAddressesAreRefusedAtStartNamingTheOutput) {
     Publisher p({to(5000, WireFormat::kBinary), m});
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("outputs[1].address: '127.0.0.1' is not a multicast group"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("outputs[1].address: '127.0.0.1' is not a multicast group"), std::string::npos)
+        << e.what();
   }
   OutputConfig b = to(5000, WireFormat::kBinary);
   b.kind = OutputConfig::Kind::kBroadcast;

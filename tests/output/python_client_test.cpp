@@ -26,9 +26,10 @@ std::string run(const std::string& command) {
 // (`malformed_message`).
 std::string python_decode(const std::vector<std::uint8_t>& bytes, bool malformed_message = false) {
   const auto file = std::filesystem::temp_directory_path() / ("ips_py_" + std::to_string(::getpid()) + ".bin");
-  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
-                                              static_cast<std::streamsize>(bytes.size()));
-  const std::string import = "import sys, json; sys.path.insert(0, '" IPS_SOURCE_DIR "/tools'); import ipsd_client as c";
+  std::ofstream(file, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  const std::string import =
+      "import sys, json; sys.path.insert(0, '" IPS_SOURCE_DIR "/tools'); import ipsd_client as c";
   const std::string data = "open('" + file.string() + "', 'rb').read()";
   const std::string out = run("python3 -c \"" + import +
                               (malformed_message ? "\ntry: c.decode(" + data + ")\nexcept c.Malformed as e: print(e)\""

@@ -82,7 +82,8 @@ TEST(Ros2IpsdBodies, BodyPosesAreTheStreamsBodyRecordsWithTheirQuaternion) {
         while (auto bytes = rx.receive(0)) {
           const Datagram d = decode_datagram(*bytes);
           for (const auto& b : d.bodies)
-            udp[{b.name, d.capture_realtime_ns + 1000LL * b.dt_us}].push_back({b, d.capture_monotonic_ns + 1000LL * b.dt_us});
+            udp[{b.name, d.capture_realtime_ns + 1000LL * b.dt_us}].push_back(
+                {b, d.capture_monotonic_ns + 1000LL * b.dt_us});
         }
         for (const auto& [name, reader] : readers)
           test::take_all<PoseStamped>(reader, [&, n = name](const PoseStamped& m) {
@@ -96,15 +97,16 @@ TEST(Ros2IpsdBodies, BodyPosesAreTheStreamsBodyRecordsWithTheirQuaternion) {
             odoms[n].back().header.frame_id = odoms[n].back().child_frame_id = nullptr;
           });
         test::take_all<TFMessage>(tf, [&](const TFMessage& m) {
-          for (std::uint32_t i = 0; i < m.transforms._length; ++i) tf_children.insert(m.transforms._buffer[i].child_frame_id);
+          for (std::uint32_t i = 0; i < m.transforms._length; ++i)
+            tf_children.insert(m.transforms._buffer[i].child_frame_id);
         });
         return poses["turtle"].size() >= 10 && poses["long"].size() >= 10 && odoms["turtle"].size() >= 10 &&
                odoms["long"].size() >= 10 && tf_children.size() >= 3;
       },
       60.0);
   ASSERT_TRUE(enough) << poses["turtle"].size() << " turtle, " << poses["long"].size() << " long, "
-                      << odoms["turtle"].size() << " / " << odoms["long"].size() << " odom, "
-                      << tf_children.size() << " tf frames\n"
+                      << odoms["turtle"].size() << " / " << odoms["long"].size() << " odom, " << tf_children.size()
+                      << " tf frames\n"
                       << test::read_file(log);
   EXPECT_EQ(tf_children, (std::set<std::string>{"turtle", "long", "marker_3"}));
 

@@ -39,12 +39,16 @@ void expect_error(const std::string& outputs, const std::string& fragment) {
 struct DomainEnv {
   explicit DomainEnv(const char* value) {
     if (const char* v = std::getenv("ROS_DOMAIN_ID")) saved = v, had = true;
-    if (value) ::setenv("ROS_DOMAIN_ID", value, 1);
-    else ::unsetenv("ROS_DOMAIN_ID");
+    if (value)
+      ::setenv("ROS_DOMAIN_ID", value, 1);
+    else
+      ::unsetenv("ROS_DOMAIN_ID");
   }
   ~DomainEnv() {
-    if (had) ::setenv("ROS_DOMAIN_ID", saved.c_str(), 1);
-    else ::unsetenv("ROS_DOMAIN_ID");
+    if (had)
+      ::setenv("ROS_DOMAIN_ID", saved.c_str(), 1);
+    else
+      ::unsetenv("ROS_DOMAIN_ID");
   }
   std::string saved;
   bool had = false;
@@ -97,7 +101,8 @@ TEST(Ros2Config, DomainFromRosDomainId) {
 
 TEST(Ros2Config, BadValuesNameTheirKey) {
   const DomainEnv env(nullptr);
-  expect_error("  - {type: ros2, qos: fast}\n", "ipsd.yaml:9:23: outputs[0].qos: unknown value 'fast' (best_effort|reliable)");
+  expect_error("  - {type: ros2, qos: fast}\n",
+               "ipsd.yaml:9:23: outputs[0].qos: unknown value 'fast' (best_effort|reliable)");
   expect_error("  - {type: ros2, domain: 233}\n", "outputs[0].domain: must be 0..232");
   expect_error("  - {type: ros2, domain: -1}\n", "outputs[0].domain: must be 0..232");
   expect_error("  - {type: ros2, prefix: ''}\n", "outputs[0].prefix: empty");
@@ -113,17 +118,20 @@ TEST(Ros2Config, BadValuesNameTheirKey) {
 TEST(Ros2Config, MarkerNamesMustBeRosNamesAndDistinct) {
   const DomainEnv env(nullptr);
   const std::string outputs = "outputs:\n  - {type: ros2}\n";
-  const std::string head = "cameras:\n  - {name: red, source: v4l2, device: /dev/video0, intrinsics: red.yaml}\n"
-                           "model_file: model.json\n";
+  const std::string head =
+      "cameras:\n  - {name: red, source: v4l2, device: /dev/video0, intrinsics: red.yaml}\n"
+      "model_file: model.json\n";
   try {
     (void)parse_config(head + "markers:\n  ids:\n    3: {name: robot 1}\n" + outputs, "ipsd.yaml", {false, false});
     ADD_FAILURE();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("ipsd.yaml:6:15: markers.ids.3.name: 'robot 1' is not usable in a ROS 2 topic name"),
-              std::string::npos) << e.what();
+    EXPECT_NE(
+        std::string(e.what()).find("ipsd.yaml:6:15: markers.ids.3.name: 'robot 1' is not usable in a ROS 2 topic name"),
+        std::string::npos)
+        << e.what();
   }
-  EXPECT_THROW((void)parse_config(head + "markers:\n  ids:\n    3: {name: a}\n    5: {name: a}\n" + outputs, "ipsd.yaml",
-                                  {false, false}),
+  EXPECT_THROW((void)parse_config(head + "markers:\n  ids:\n    3: {name: a}\n    5: {name: a}\n" + outputs,
+                                  "ipsd.yaml", {false, false}),
                InputError);
   // Without a ros2 output any name is fine (ips listen shows it).
   EXPECT_NO_THROW((void)parse_config(head + "markers:\n  ids:\n    3: {name: robot 1}\n", "ipsd.yaml", {false, false}));
@@ -146,11 +154,13 @@ TEST(Ros2Config, BodyNamesMustBeRosNamesApartFromTheMarkers) {
   };
   EXPECT_EQ(error_of("cube_1"), "");
   EXPECT_NE(error_of("\"cube 1\"").find("ipsd.yaml: bodies[0].name: 'cube 1' is not usable in a ROS 2 topic name"),
-            std::string::npos) << error_of("\"cube 1\"");
+            std::string::npos)
+      << error_of("\"cube 1\"");
   EXPECT_NE(error_of("robot1").find("bodies[0].name: 'robot1' is also the name of marker 3"), std::string::npos)
       << error_of("robot1");
   EXPECT_NE(error_of("marker_4").find("bodies[0].name: 'marker_4' is the ROS 2 name of unnamed marker 4"),
-            std::string::npos) << error_of("marker_4");
+            std::string::npos)
+      << error_of("marker_4");
   EXPECT_EQ(error_of("marker_x"), "");
   // Without a ros2 output the stream's rule only (1-31 bytes of UTF-8).
   EXPECT_NO_THROW((void)parse_config(kBase + bodies("\"cube 1\""), "ipsd.yaml", ConfigChecks{false, false}));

@@ -46,7 +46,8 @@ class Ros2IpsdTest : public ::testing::Test {
   static std::string config(std::uint16_t udp_port, const std::string& ros2) {
     std::string c = "cameras:\n";
     for (const char* name : {"red", "white", "black"})
-      c += std::string("  - {name: ") + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(kFps) + "}\n";
+      c += std::string("  - {name: ") + name + ", source: synthetic, scene: scene.yaml, fps: " + std::to_string(kFps) +
+           "}\n";
     c += "markers:\n  ids:\n    1: {name: robot1, height: 0.15}\n    2: {height: 0.10}\n";
     c += "model_file: model.json\n";
     c += "fusion: {method: mean, window: 0.02, max_wait: 0.5, kalman: {enabled: true}}\n";
@@ -96,7 +97,8 @@ TEST_F(Ros2IpsdTest, RosSubscriberGetsTheDaemonsStreamUnderRos2Names) {
         while (auto bytes = rx.receive(0)) {
           const Datagram d = decode_datagram(*bytes);
           for (const auto& m : d.markers)
-            udp[{m.id, d.capture_realtime_ns + 1000LL * m.dt_us}].push_back({m, d.capture_monotonic_ns + 1000LL * m.dt_us});
+            udp[{m.id, d.capture_realtime_ns + 1000LL * m.dt_us}].push_back(
+                {m, d.capture_monotonic_ns + 1000LL * m.dt_us});
         }
         test::take_all<PoseStamped>(pose1, [&](const PoseStamped& m) {
           poses.push_back(m);
@@ -125,8 +127,8 @@ TEST_F(Ros2IpsdTest, RosSubscriberGetsTheDaemonsStreamUnderRos2Names) {
         return poses.size() >= 12 && odoms.size() >= 4 && tf_children.size() >= 4 && published.size() >= 5;
       },
       60.0 * test::kTimeScale);
-  ASSERT_TRUE(enough) << poses.size() << " poses, " << odoms.size() << " odometry, " << tf_children.size()
-                      << " tf, " << published.size() << " publications\n"
+  ASSERT_TRUE(enough) << poses.size() << " poses, " << odoms.size() << " odometry, " << tf_children.size() << " tf, "
+                      << published.size() << " publications\n"
                       << test::read_file(log);
 
   // Exactly the ROS 2 names: rt/ + the ROS topic, types as rosidl registers them in DDS.
@@ -139,7 +141,7 @@ TEST_F(Ros2IpsdTest, RosSubscriberGetsTheDaemonsStreamUnderRos2Names) {
   };
   EXPECT_EQ(published, expected);
   EXPECT_EQ(reliability["rt/ipsd/robot1/pose"], DDS_RELIABILITY_BEST_EFFORT);  // qos default
-  EXPECT_EQ(reliability["rt/tf"], DDS_RELIABILITY_RELIABLE);  // what tf2 listeners ask for
+  EXPECT_EQ(reliability["rt/tf"], DDS_RELIABILITY_RELIABLE);                   // what tf2 listeners ask for
 
   const auto status = nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()));
   const std::int64_t epoch = status["synthetic_epoch_mono_ns"];

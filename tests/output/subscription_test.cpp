@@ -181,8 +181,10 @@ TEST(SubscriptionSink, SubscribeReceiveRenewAndExpire) {
   EXPECT_EQ(accepted->status, Status::kAccepted);
   EXPECT_EQ(accepted->lease_s, 2);  // capped by max_lease
   const std::int64_t t0 = monotonic_ns();
-  auto sleep_until = [&](double s) { std::this_thread::sleep_until(std::chrono::steady_clock::now() +
-                                                                   std::chrono::nanoseconds(t0 + static_cast<std::int64_t>(s * 1e9) - monotonic_ns())); };
+  auto sleep_until = [&](double s) {
+    std::this_thread::sleep_until(std::chrono::steady_clock::now() +
+                                  std::chrono::nanoseconds(t0 + static_cast<std::int64_t>(s * 1e9) - monotonic_ns()));
+  };
 
   sink->publish(update_with({1, 2, 3}));
   sink->publish(update_with({1, 3}));
@@ -246,7 +248,7 @@ TEST(SubscriptionSink, UnverifiedAndSpoofedSourcesGetNoStream) {
     ASSERT_TRUE(reply) << "the victim received stream data";
     EXPECT_EQ(reply->status, Status::kChallenge);
   }
-  EXPECT_EQ(at_victim.size(), 2u);  // the two re-challenges
+  EXPECT_EQ(at_victim.size(), 2u);         // the two re-challenges
   EXPECT_EQ(attacker.drain().size(), 5u);  // the verified attacker address itself is served
   const OutputStats s = sink->stats();
   EXPECT_EQ(counter(s, "refused_cookie"), 2u);
@@ -263,11 +265,15 @@ TEST(SubscriptionSink, RequestFloodIsNotAmplified) {
   with_ids.all = false;
   with_ids.ids = {1, 2, 3};
   const std::vector<std::vector<std::uint8_t>> kinds = {
-      encode_request(r, ""),                                   // unverified: challenged
-      encode_request(with_ids, ""),                            // unverified, larger
-      [&] { Request g = r; g.cookie.fill(0x5A); return encode_request(g, ""); }(),  // forged cookie
-      std::vector<std::uint8_t>(40, 0x41),                     // garbage
-      std::vector<std::uint8_t>(1, 0x00),                      // runt
+      encode_request(r, ""),         // unverified: challenged
+      encode_request(with_ids, ""),  // unverified, larger
+      [&] {
+        Request g = r;
+        g.cookie.fill(0x5A);
+        return encode_request(g, "");
+      }(),                                  // forged cookie
+      std::vector<std::uint8_t>(40, 0x41),  // garbage
+      std::vector<std::uint8_t>(1, 0x00),   // runt
   };
   for (int i = 0; i < 100000; ++i) {
     const auto& b = kinds[static_cast<std::size_t>(i) % kinds.size()];
@@ -362,7 +368,8 @@ TEST(SubscriptionSink, BadAllowEntryAndBusyPortNameTheKey) {
     (void)make_output_sink(busy, 2);
     ADD_FAILURE() << "listened on a port in use";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("outputs[2].port: cannot listen on 127.0.0.1:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("outputs[2].port: cannot listen on 127.0.0.1:"), std::string::npos)
+        << e.what();
   }
 }
 

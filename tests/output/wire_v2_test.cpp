@@ -45,36 +45,35 @@ Datagram one_body() {
 
 // Written out by hand from the layout in wire.h (floats: IEEE-754 single, little-endian).
 const std::vector<std::uint8_t> kOneBody = {
-    'I', 'P', 'S', 'D', 2, 0, 0, 0,  // magic, version 2, flags 0
-    41, 0, 0, 0,                     // sequence
-    0, 0, 36, 0,                     // marker_count 0, record_size 36
-    0, 1, 0, 0,                      // part 0 of 1, reserved
-    7, 0, 0, 0,                      // update
-    8, 7, 6, 5, 4, 3, 2, 1,          // capture_realtime_ns
-    55, 0, 0, 0, 0, 0, 0, 0,         // capture_monotonic_ns
-    0, 0, 0, 0, 0, 0, 0, 0,          // publish_realtime_ns
-    1, 0, 116, 0,                    // body section: 1 body of 116 bytes
-    'c', 'u', 'b', 'e', 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // name, NUL-padded to 32
-    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-    5, 0, 0, 0,              // camera_mask
-    0, 0, 0xc0, 0x3f,        // x 1.5
-    0, 0, 0x80, 0xbe,        // y -0.25
-    0, 0, 0, 0,              // z 0
-    0, 0, 0, 0x3f,           // yaw 0.5
-    0, 0, 0, 0x3f,           // qw 0.5
-    0, 0, 0, 0x3f,           // qx
-    0, 0, 0, 0x3f,           // qy
-    0, 0, 0, 0x3f,           // qz
-    0, 0, 0x48, 0x44,        // quality 800
-    0, 0, 0, 0x3e,           // spread 0.125
-    0xfe, 0xff, 0xff, 0xff,  // dt_us -2
-    7, 0,                    // body_flags: has yaw, velocity, yaw rate
-    2, 0,                    // id_count
-    7, 0, 0, 0, 0x2c, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // ids 7, 300, 0, 0
-    0, 0, 0, 0x3f,           // vx 0.5
-    0, 0, 0x80, 0xbf,        // vy -1
-    0, 0, 0, 0,              // vz 0
-    0, 0, 0x80, 0x3e,        // yaw_rate 0.25
+    'I',  'P',  'S',  'D',  2,    0, 0, 0,                                      // magic, version 2, flags 0
+    41,   0,    0,    0,                                                        // sequence
+    0,    0,    36,   0,                                                        // marker_count 0, record_size 36
+    0,    1,    0,    0,                                                        // part 0 of 1, reserved
+    7,    0,    0,    0,                                                        // update
+    8,    7,    6,    5,    4,    3, 2, 1,                                      // capture_realtime_ns
+    55,   0,    0,    0,    0,    0, 0, 0,                                      // capture_monotonic_ns
+    0,    0,    0,    0,    0,    0, 0, 0,                                      // publish_realtime_ns
+    1,    0,    116,  0,                                                        // body section: 1 body of 116 bytes
+    'c',  'u',  'b',  'e',  0,    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,              // name, NUL-padded to 32
+    0,    0,    0,    0,    0,    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 5, 0, 0, 0,  // camera_mask
+    0,    0,    0xc0, 0x3f,                                                     // x 1.5
+    0,    0,    0x80, 0xbe,                                                     // y -0.25
+    0,    0,    0,    0,                                                        // z 0
+    0,    0,    0,    0x3f,                                                     // yaw 0.5
+    0,    0,    0,    0x3f,                                                     // qw 0.5
+    0,    0,    0,    0x3f,                                                     // qx
+    0,    0,    0,    0x3f,                                                     // qy
+    0,    0,    0,    0x3f,                                                     // qz
+    0,    0,    0x48, 0x44,                                                     // quality 800
+    0,    0,    0,    0x3e,                                                     // spread 0.125
+    0xfe, 0xff, 0xff, 0xff,                                                     // dt_us -2
+    7,    0,                                                        // body_flags: has yaw, velocity, yaw rate
+    2,    0,                                                        // id_count
+    7,    0,    0,    0,    0x2c, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // ids 7, 300, 0, 0
+    0,    0,    0,    0x3f,                                         // vx 0.5
+    0,    0,    0x80, 0xbf,                                         // vy -1
+    0,    0,    0,    0,                                            // vz 0
+    0,    0,    0x80, 0x3e,                                         // yaw_rate 0.25
 };
 
 TEST(WireV2, EncoderWritesTheDocumentedBytes) {
@@ -215,11 +214,13 @@ TEST(WireV2, JsonCarriesTheBodies) {
   const std::string js = encode_json(still);
   EXPECT_EQ(js.find("\"vx\""), std::string::npos) << js;
   EXPECT_EQ(js.find("yaw_rate"), std::string::npos) << js;
-  EXPECT_FALSE(decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(js.data()), js.size())).bodies[0].has_velocity);
+  EXPECT_FALSE(
+      decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(js.data()), js.size())).bodies[0].has_velocity);
   std::string partial = j;
   const auto vy = partial.find(",\"vy\"");
   partial.erase(vy, partial.find(",\"vz\"") - vy);  // valid JSON, vx and vz without vy
-  EXPECT_THROW(decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(partial.data()), partial.size())), InputError)
+  EXPECT_THROW(decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(partial.data()), partial.size())),
+               InputError)
       << partial;
   // Version 1 JSON has no bodies key.
   Datagram v1;

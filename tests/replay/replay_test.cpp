@@ -60,9 +60,9 @@ double angle_diff(double a, double b) { return std::remainder(a - b, 2 * std::nu
 std::string config(std::uint16_t port, double fps, double velocity_span) {
   std::string c = "cameras:\n";
   for (const char* cam : {"red", "white"})
-    c += std::string("  - {name: ") + cam + ", source: file, path: " + (kData / "frames" / cam).string() + ", fps: " +
-         std::to_string(fps) + ", preload: true, intrinsics: " + (kData / ("intrinsics_" + std::string(cam) + "_half.yaml")).string() +
-         "}\n";
+    c += std::string("  - {name: ") + cam + ", source: file, path: " + (kData / "frames" / cam).string() +
+         ", fps: " + std::to_string(fps) +
+         ", preload: true, intrinsics: " + (kData / ("intrinsics_" + std::string(cam) + "_half.yaml")).string() + "}\n";
   // Marker 1 has no height: seen by both cameras it is triangulated; the others are mapped
   // at their known height.
   c += "markers:\n  ids:\n    2: {height: 0.10}\n    3: {height: 0.0, edge_length: 0.15}\n    4: {height: 0.05}\n";
@@ -131,11 +131,17 @@ TEST(ReplayRegression, PublishedOutputMatchesTheGolden) {
   const fs::path golden_path = kData / "golden.json";
   if (std::getenv("IPS_REGENERATE_GOLDEN")) {
     nlohmann::json g;
-    g["comment"] = "ipsd's published output for tests/replay/data/frames; written by IPS_REGENERATE_GOLDEN=1 test_replay";
+    g["comment"] =
+        "ipsd's published output for tests/replay/data/frames; written by IPS_REGENERATE_GOLDEN=1 test_replay";
     g["records"] = nlohmann::json::array();
     for (const auto& [k, s] : got)
-      g["records"].push_back({{"id", k.id}, {"cameras", k.cameras}, {"x", Stats::median(s.x)}, {"y", Stats::median(s.y)},
-                              {"z", Stats::median(s.z)}, {"yaw", Stats::median(s.yaw)}, {"count", s.x.size()}});
+      g["records"].push_back({{"id", k.id},
+                              {"cameras", k.cameras},
+                              {"x", Stats::median(s.x)},
+                              {"y", Stats::median(s.y)},
+                              {"z", Stats::median(s.z)},
+                              {"yaw", Stats::median(s.yaw)},
+                              {"count", s.x.size()}});
     std::ofstream(golden_path) << g.dump(1) << "\n";
     GTEST_SKIP() << "golden rewritten: " << golden_path << " (" << got.size() << " keys); review and commit it";
   }
@@ -144,19 +150,23 @@ TEST(ReplayRegression, PublishedOutputMatchesTheGolden) {
   ASSERT_TRUE(in) << golden_path << " missing: IPS_REGENERATE_GOLDEN=1 test_replay writes it";
   const auto golden = nlohmann::json::parse(in);
   // The scene's truth (tests/replay/data/scene.yaml), for the sanity check of the golden.
-  const std::map<std::uint32_t, std::array<double, 4>> truth{
-      {1, {2.40, 1.60, 0.15, 0.0}}, {2, {2.10, 0.80, 0.10, 45.0}}, {3, {2.70, 2.50, 0.0, -60.0}}, {4, {2.00, 1.30, 0.05, 120.0}}};
+  const std::map<std::uint32_t, std::array<double, 4>> truth{{1, {2.40, 1.60, 0.15, 0.0}},
+                                                             {2, {2.10, 0.80, 0.10, 45.0}},
+                                                             {3, {2.70, 2.50, 0.0, -60.0}},
+                                                             {4, {2.00, 1.30, 0.05, 120.0}}};
 
   std::map<Key, bool> seen;
   for (const auto& g : golden["records"]) {
     const Key k{g["id"].get<std::uint32_t>(), g["cameras"].get<std::uint32_t>()};
     const double gx = g["x"], gy = g["y"], gz = g["z"], gyaw = g["yaw"];
     const auto& t = truth.at(k.id);
-    EXPECT_LT(std::hypot(gx - t[0], gy - t[1], gz - t[2]), kTruthTolM) << "golden of marker " << k.id << " far from the truth";
+    EXPECT_LT(std::hypot(gx - t[0], gy - t[1], gz - t[2]), kTruthTolM)
+        << "golden of marker " << k.id << " far from the truth";
     EXPECT_LT(std::fabs(angle_diff(gyaw, t[3] * std::numbers::pi / 180)), 2.0 * std::numbers::pi / 180) << k.id;
     const auto it = got.find(k);
     if (it == got.end()) {
-      ADD_FAILURE() << "marker " << k.id << " from cameras 0x" << std::hex << k.cameras << " is in the golden but was not published\n"
+      ADD_FAILURE() << "marker " << k.id << " from cameras 0x" << std::hex << k.cameras
+                    << " is in the golden but was not published\n"
                     << log;
       continue;
     }

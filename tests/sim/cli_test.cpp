@@ -10,9 +10,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "command.h"
 #include "ips/sim/renderer.h"
 #include "ips/sim/scene.h"
-#include "command.h"
 
 namespace fs = std::filesystem;
 
@@ -43,8 +43,7 @@ TEST(Cli, SimRenderThenLocateAgreesWithTruth) {
   const fs::path dir = temp_dir("render");
   const fs::path scene = dir / "scene.yaml";
   std::ofstream(scene) << scene_text();
-  const CmdResult r = run("sim render --scene " + scene.string() + " --out " +
-                          (dir / "out").string() + " --frames 2");
+  const CmdResult r = run("sim render --scene " + scene.string() + " --out " + (dir / "out").string() + " --frames 2");
   ASSERT_EQ(r.status, 0) << r.out;
   ASSERT_TRUE(fs::exists(dir / "out/red_000001.jpg"));
   std::ifstream in(dir / "out/truth_000000.json");
@@ -61,15 +60,13 @@ TEST(Cli, SimRenderThenLocateAgreesWithTruth) {
   EXPECT_DOUBLE_EQ(m5["cameras"]["red"]["corners"][2][0].get<double>(), exact[0].corners_px[2].x);
   EXPECT_DOUBLE_EQ(m5["cameras"]["red"]["zc"].get<double>(), exact[0].formula.p_cam.z());
 
-  const CmdResult loc =
-      run("locate --image " + (dir / "out/red_000000.jpg").string() + " --intrinsics " +
-          (kData / "ou2023/intrinsics_red.yaml").string() + " --marker-size 9=0.15 --json");
+  const CmdResult loc = run("locate --image " + (dir / "out/red_000000.jpg").string() + " --intrinsics " +
+                            (kData / "ou2023/intrinsics_red.yaml").string() + " --marker-size 9=0.15 --json");
   ASSERT_EQ(loc.status, 0) << loc.out;
   const auto found = nlohmann::json::parse(loc.out)["markers"];
   ASSERT_EQ(found.size(), 2u);
   for (const auto& f : found) {
-    const auto& t = f["id"] == 5 ? truth["markers"][0]["cameras"]["red"]
-                                 : truth["markers"][1]["cameras"]["red"];
+    const auto& t = f["id"] == 5 ? truth["markers"][0]["cameras"]["red"] : truth["markers"][1]["cameras"]["red"];
     EXPECT_NEAR(f["xc"].get<double>(), t["xc"].get<double>(), 0.01);
     EXPECT_NEAR(f["yc"].get<double>(), t["yc"].get<double>(), 0.01);
     EXPECT_NEAR(f["zc"].get<double>(), t["zc"].get<double>(), 0.02);
@@ -78,8 +75,8 @@ TEST(Cli, SimRenderThenLocateAgreesWithTruth) {
       EXPECT_NEAR(f["corners"][i][1].get<double>(), t["corners"][i][1].get<double>(), 0.3);
     }
   }
-  const CmdResult text = run("locate --image " + (dir / "out/red_000000.jpg").string() +
-                             " --intrinsics " + (kData / "ou2023/intrinsics_red.yaml").string());
+  const CmdResult text = run("locate --image " + (dir / "out/red_000000.jpg").string() + " --intrinsics " +
+                             (kData / "ou2023/intrinsics_red.yaml").string());
   EXPECT_EQ(text.status, 0);
   EXPECT_NE(text.out.find("2 marker(s)"), std::string::npos) << text.out;
 }
@@ -101,7 +98,8 @@ TEST(Cli, LocateWithTheDaemonsConfigUsesItsMarkersAndDetectionSettings) {
   const std::string image = (dir / "f/red_000000.jpg").string();
   const auto truth = ips::sim::CameraRenderer(ips::sim::Scene::load(dir / "scene.yaml"), 0).truth(0.0);
 
-  const CmdResult r = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "ipsd.yaml").string() + " --json");
+  const CmdResult r = run("locate --image " + image + " --intrinsics " + intr + " --config " +
+                          (dir / "ipsd.yaml").string() + " --json");
   ASSERT_EQ(r.status, 0) << r.out;
   const auto found = nlohmann::json::parse(r.out)["markers"];
   ASSERT_EQ(found.size(), 2u) << r.out;
@@ -110,15 +108,18 @@ TEST(Cli, LocateWithTheDaemonsConfigUsesItsMarkersAndDetectionSettings) {
     EXPECT_NEAR(f["zc"].get<double>(), t.formula.p_cam.z(), 0.02);  // 9 at 0.15 m, from markers.ids
     EXPECT_DOUBLE_EQ(f["length"].get<double>(), f["id"] == 5 ? 0.2 : 0.15);
   }
-  const CmdResult none = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "strict.yaml").string() + " --json");
+  const CmdResult none = run("locate --image " + image + " --intrinsics " + intr + " --config " +
+                             (dir / "strict.yaml").string() + " --json");
   ASSERT_EQ(none.status, 0) << none.out;
   EXPECT_EQ(nlohmann::json::parse(none.out)["markers"].size(), 0u) << none.out;
 
-  const CmdResult both = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "ipsd.yaml").string() + " --dictionary DICT_4X4_50");
+  const CmdResult both = run("locate --image " + image + " --intrinsics " + intr + " --config " +
+                             (dir / "ipsd.yaml").string() + " --dictionary DICT_4X4_50");
   EXPECT_NE(both.status, 0);
   EXPECT_NE(both.out.find("excludes"), std::string::npos) << both.out;
   std::ofstream(dir / "typo.yaml") << config("detection: {refinment: edges}\n");
-  const CmdResult typo = run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "typo.yaml").string());
+  const CmdResult typo =
+      run("locate --image " + image + " --intrinsics " + intr + " --config " + (dir / "typo.yaml").string());
   EXPECT_EQ(typo.status, 2);
   EXPECT_NE(typo.out.find("typo.yaml:5:13: detection.refinment: unknown key"), std::string::npos) << typo.out;
 }
@@ -130,8 +131,7 @@ TEST(Cli, LocateRefusesBadImagesAndIntrinsics) {
   // A truncated JPEG: the first half of a real frame.
   const fs::path scene = dir / "scene.yaml";
   std::ofstream(scene) << scene_text();
-  ASSERT_EQ(run("sim render --scene " + scene.string() + " --out " + (dir / "f").string()).status,
-            0);
+  ASSERT_EQ(run("sim render --scene " + scene.string() + " --out " + (dir / "f").string()).status, 0);
   std::ifstream full(dir / "f/red_000000.jpg", std::ios::binary);
   std::ostringstream whole;
   whole << full.rdbuf();
@@ -144,14 +144,11 @@ TEST(Cli, LocateRefusesBadImagesAndIntrinsics) {
            {"--image " + (dir / "text.jpg").string() + " --intrinsics " + intr, "text.jpg"},
            {"--image " + (dir / "half.jpg").string() + " --intrinsics " + intr, "half.jpg"},
            {"--image " + (dir / "missing.jpg").string() + " --intrinsics " + intr, "missing.jpg"},
-           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " +
-                (dir / "bad_intr.yaml").string(),
+           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + (dir / "bad_intr.yaml").string(),
             "'K'"},
-           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr +
-                " --dictionary DICT_3X3",
+           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr + " --dictionary DICT_3X3",
             "DICT_3X3"},
-           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr +
-                " --marker-size 5:0.2",
+           {"--image " + (dir / "f/red_000000.jpg").string() + " --intrinsics " + intr + " --marker-size 5:0.2",
             "5:0.2"},
        }) {
     const CmdResult r = run("locate " + args);
@@ -162,19 +159,15 @@ TEST(Cli, LocateRefusesBadImagesAndIntrinsics) {
 
 TEST(Cli, SimCommandsRefuseBadScenesWithoutWritingOutput) {
   const fs::path dir = temp_dir("sim_errors");
-  std::ofstream(dir / "bad.yaml")
-      << "cameras:\n  - name: red\n    intrinsics: nope.yaml\n    position: [1, 1, 2]\n";
-  CmdResult r =
-      run("sim render --scene " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
+  std::ofstream(dir / "bad.yaml") << "cameras:\n  - name: red\n    intrinsics: nope.yaml\n    position: [1, 1, 2]\n";
+  CmdResult r = run("sim render --scene " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.out.find("cameras[0].intrinsics"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir / "out"));
-  r = run("sim collect --scene " + (dir / "bad.yaml").string() + " --points 3 --out " +
-          (dir / "p.csv").string());
+  r = run("sim collect --scene " + (dir / "bad.yaml").string() + " --points 3 --out " + (dir / "p.csv").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_FALSE(fs::exists(dir / "p.csv"));
-  r = run("sim render --scene " + (dir / "missing.yaml").string() + " --out " +
-          (dir / "out").string());
+  r = run("sim render --scene " + (dir / "missing.yaml").string() + " --out " + (dir / "out").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.out.find("missing.yaml"), std::string::npos) << r.out;
 }
@@ -183,8 +176,8 @@ TEST(Cli, SimCollectWritesPairsConsistentWithTheCameraPose) {
   const fs::path dir = temp_dir("collect");
   const fs::path scene = dir / "scene.yaml";
   std::ofstream(scene) << scene_text();
-  const CmdResult r = run("sim collect --scene " + scene.string() +
-                          " --points 5 --tape-noise 0 --out " + (dir / "pairs.csv").string());
+  const CmdResult r =
+      run("sim collect --scene " + scene.string() + " --points 5 --tape-noise 0 --out " + (dir / "pairs.csv").string());
   ASSERT_EQ(r.status, 0) << r.out;
   const auto loaded = ips::sim::Scene::load(scene);
   std::ifstream in(dir / "pairs.csv");

@@ -9,8 +9,8 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-#include "release_only.h"
 #include "command.h"
+#include "release_only.h"
 
 namespace fs = std::filesystem;
 
@@ -30,14 +30,12 @@ TEST(EndToEnd, SimCollectFitEvalMeetsThePublishedAccuracy) {
   fs::create_directories(dir);
   const std::string train = (dir / "train.csv").string();
   const std::string test = (dir / "test.csv").string();
-  auto r = run("sim collect --scene " + kScene + " --points 40 --tape-noise 0.005 --seed 1 --out " +
-               train);
+  auto r = run("sim collect --scene " + kScene + " --points 40 --tape-noise 0.005 --seed 1 --out " + train);
   ASSERT_EQ(r.first, 0) << r.second;
   r = run("sim collect --scene " + kScene + " --points 20 --tape-noise 0 --seed 2 --out " + test);
   ASSERT_EQ(r.first, 0) << r.second;
 
-  for (const auto& [method, limit2d] :
-       {std::pair{std::string("pr"), 0.015}, std::pair{std::string("plane"), 0.010}}) {
+  for (const auto& [method, limit2d] : {std::pair{std::string("pr"), 0.015}, std::pair{std::string("plane"), 0.010}}) {
     SCOPED_TRACE(method);
     const std::string model = (dir / (method + ".json")).string();
     r = run("fit --data " + train + " --method " + method + " --out " + model);
@@ -50,8 +48,8 @@ TEST(EndToEnd, SimCollectFitEvalMeetsThePublishedAccuracy) {
       EXPECT_EQ(stats["n"], 20) << name;
       const double mean2d = stats["err2d"]["mean"].get<double>();
       EXPECT_LT(mean2d, limit2d) << name;
-      std::printf("%s %s: mean 2D error %.2f cm, 3D %.2f cm\n", method.c_str(), name.c_str(),
-                  100 * mean2d, 100 * stats["err3d"]["mean"].get<double>());
+      std::printf("%s %s: mean 2D error %.2f cm, 3D %.2f cm\n", method.c_str(), name.c_str(), 100 * mean2d,
+                  100 * stats["err3d"]["mean"].get<double>());
     }
   }
 }

@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "ips/core/error.h"
 #include "ips/capture/jpeg_decoder.h"
+#include "ips/core/error.h"
 
 namespace {
 
@@ -74,8 +74,7 @@ TEST(Renderer, MotionBlurSmearsAMovingMarker) {
   auto mid_grey = [](const cv::Mat& img, const ips::sim::MarkerTruth& t) {
     double x0 = 1e9, y0 = 1e9, x1 = 0, y1 = 0;
     for (const auto& c : t.corners_px) {
-      x0 = std::min(x0, c.x), y0 = std::min(y0, c.y), x1 = std::max(x1, c.x),
-      y1 = std::max(y1, c.y);
+      x0 = std::min(x0, c.x), y0 = std::min(y0, c.y), x1 = std::max(x1, c.x), y1 = std::max(y1, c.y);
     }
     const cv::Mat roi = img(cv::Rect(cv::Point(static_cast<int>(x0), static_cast<int>(y0)),
                                      cv::Point(static_cast<int>(x1), static_cast<int>(y1))));

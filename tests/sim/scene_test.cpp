@@ -20,8 +20,8 @@ const fs::path kData = IPS_TEST_DATA_DIR;
 const fs::path kScene = fs::path(IPS_CONFIG_DIR) / "scenes/ou2023.yaml";
 
 // Rigid (Kabsch) fit world = R cam + t over the published pairs of one camera.
-void kabsch(const std::vector<Eigen::Vector3d>& cam, const std::vector<Eigen::Vector3d>& world,
-            Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+void kabsch(const std::vector<Eigen::Vector3d>& cam, const std::vector<Eigen::Vector3d>& world, Eigen::Matrix3d& R,
+            Eigen::Vector3d& t) {
   Eigen::Vector3d mc = Eigen::Vector3d::Zero(), mw = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < cam.size(); ++i) {
     mc += cam[i];
@@ -41,8 +41,7 @@ void kabsch(const std::vector<Eigen::Vector3d>& cam, const std::vector<Eigen::Ve
 TEST(Scene, PublishedLayoutAgreesWithRigidFitOfTrain40) {
   const auto scene = ips::sim::Scene::load(kScene);
   ASSERT_EQ(scene.cameras.size(), 3u);
-  std::map<std::string, std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>>
-      pairs;
+  std::map<std::string, std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>> pairs;
   std::ifstream in(kData / "ou2023/train40.csv");
   std::string line;
   std::getline(in, line);
@@ -69,9 +68,8 @@ TEST(Scene, PublishedLayoutAgreesWithRigidFitOfTrain40) {
     const double angle = Eigen::AngleAxisd(R.transpose() * cam.R_wc).angle();
     EXPECT_LT(angle, 0.05 * std::numbers::pi / 180) << angle;
     // ... which looks straight down to within 2 degrees.
-    EXPECT_LT(
-        Eigen::AngleAxisd(cam.R_wc.transpose() * ips::sim::Scene::orientation(0, 0, 0)).angle(),
-        2.0 * std::numbers::pi / 180);
+    EXPECT_LT(Eigen::AngleAxisd(cam.R_wc.transpose() * ips::sim::Scene::orientation(0, 0, 0)).angle(),
+              2.0 * std::numbers::pi / 180);
     EXPECT_EQ(cam.model.size().width, 1920);
   }
 }
@@ -123,21 +121,22 @@ fs::path write_scene(const std::string& name, const std::string& body) {
 TEST(Scene, DocumentedTrajectoryConventions) {
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
   const double deg = std::numbers::pi / 180;
-  const auto scene = ips::sim::Scene::load(write_scene(
-      "conventions.yaml",
-      "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n"
-      "markers:\n"
-      // 0: counter-clockwise circle, 1: clockwise, both with a 10 degree yaw offset
-      "  - {id: 0, yaw_deg: 10, height: 0.1,\n"
-      "     trajectory: {type: circle, center: [2, 2], radius: 1, speed: 0.5}}\n"
-      "  - {id: 1, yaw_deg: 10, trajectory: {type: circle, center: [2, 2], radius: 1, speed: 0.5,"
-      " clockwise: true}}\n"
-      // 2: a line (x/y given and ignored), 3: waypoints, 4: the same line without x/y
-      "  - {id: 2, x: 0.3, y: 0.4, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1}}\n"
-      "  - {id: 3, trajectory: {type: waypoints, points: [[1, 1], [1, 3], [3, 3]], speed: 1}}\n"
-      "  - {id: 4, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1}}\n"
-      "  - {id: 5, yaw_deg: 25, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1,"
-      " heading: fixed}}\n"));
+  const auto scene = ips::sim::Scene::load(
+      write_scene("conventions.yaml",
+                  "cameras:\n  - name: red\n    intrinsics: " + intr +
+                      "\n    position: [1, 1, 2]\n"
+                      "markers:\n"
+                      // 0: counter-clockwise circle, 1: clockwise, both with a 10 degree yaw offset
+                      "  - {id: 0, yaw_deg: 10, height: 0.1,\n"
+                      "     trajectory: {type: circle, center: [2, 2], radius: 1, speed: 0.5}}\n"
+                      "  - {id: 1, yaw_deg: 10, trajectory: {type: circle, center: [2, 2], radius: 1, speed: 0.5,"
+                      " clockwise: true}}\n"
+                      // 2: a line (x/y given and ignored), 3: waypoints, 4: the same line without x/y
+                      "  - {id: 2, x: 0.3, y: 0.4, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1}}\n"
+                      "  - {id: 3, trajectory: {type: waypoints, points: [[1, 1], [1, 3], [3, 3]], speed: 1}}\n"
+                      "  - {id: 4, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1}}\n"
+                      "  - {id: 5, yaw_deg: 25, trajectory: {type: line, from: [1, 1], to: [3, 1], speed: 1,"
+                      " heading: fixed}}\n"));
   auto heading = [](double yaw) { return std::remainder(yaw, 2 * std::numbers::pi); };
   // Circle at t = 0: at centre + (radius, 0); counter-clockwise moves towards +y (heading
   // +90 deg), clockwise towards -y; yaw_deg is added to the heading of travel.
@@ -187,10 +186,9 @@ TEST(Scene, DocumentedTrajectoryConventions) {
 TEST(Scene, RotationDegOrderAndSigns) {
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
   auto camera = [&](const std::string& rot) {
-    return ips::sim::Scene::load(
-               write_scene("rot.yaml", "cameras:\n  - name: red\n    intrinsics: " + intr +
-                                           "\n    position: [1, 1, 2]\n    rotation_deg: " +
-                                           rot + "\n"))
+    return ips::sim::Scene::load(write_scene("rot.yaml", "cameras:\n  - name: red\n    intrinsics: " + intr +
+                                                             "\n    position: [1, 1, 2]\n    rotation_deg: " + rot +
+                                                             "\n"))
         .cameras[0]
         .R_wc;
   };
@@ -213,10 +211,10 @@ TEST(Scene, RotationDegOrderAndSigns) {
 TEST(Scene, PlacementsFollowTheControlFile) {
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
   const fs::path scene_file = write_scene(
-      "placements.yaml",
-      "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n"
-      "markers:\n  - {id: 0, height: 0.05, yaw_deg: 30, trajectory: {type: placements, "
-      "control: placement_index.txt, points: [[1, 2], [2, 3, 0.15], [0.5, 0.25, 0, -90]]}}\n");
+      "placements.yaml", "cameras:\n  - name: red\n    intrinsics: " + intr +
+                             "\n    position: [1, 1, 2]\n"
+                             "markers:\n  - {id: 0, height: 0.05, yaw_deg: 30, trajectory: {type: placements, "
+                             "control: placement_index.txt, points: [[1, 2], [2, 3, 0.15], [0.5, 0.25, 0, -90]]}}\n");
   const fs::path control = scene_file.parent_path() / "placement_index.txt";
   fs::remove(control);
   const auto scene = ips::sim::Scene::load(scene_file);
@@ -244,8 +242,7 @@ TEST(Scene, PlacementsFollowTheControlFile) {
 
 TEST(Scene, BadScenesNameFileLineAndKey) {
   const std::string intr = (kData / "ou2023/intrinsics_red.yaml").string();
-  const std::string cam =
-      "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n";
+  const std::string cam = "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n";
   struct Case {
     const char* file;
     std::string body;
@@ -256,14 +253,11 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
       {"complex_key.yaml", cam + "floor:\n  ? size: [4, 4]\n  : 1\n", "a key must be a plain word"},
       {"typo.yaml", cam + "flor: {size: [4, 4]}\n", "flor"},
       {"bad_size.yaml", cam + "floor: {size: [4, -1]}\n", "floor.size"},
-      {"bad_intr.yaml",
-       "cameras:\n  - name: red\n    intrinsics: missing.yaml\n    position: [1, 1, 2]\n",
+      {"bad_intr.yaml", "cameras:\n  - name: red\n    intrinsics: missing.yaml\n    position: [1, 1, 2]\n",
        "cameras[0].intrinsics"},
-      {"bad_pos.yaml",
-       "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, x, 2]\n",
+      {"bad_pos.yaml", "cameras:\n  - name: red\n    intrinsics: " + intr + "\n    position: [1, x, 2]\n",
        "cameras[0].position"},
-      {"dup_cam.yaml",
-       cam + "  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n", "duplicate"},
+      {"dup_cam.yaml", cam + "  - name: red\n    intrinsics: " + intr + "\n    position: [1, 1, 2]\n", "duplicate"},
       {"bad_traj.yaml", cam + "markers:\n  - id: 1\n    trajectory: {type: spiral, speed: 1}\n",
        "markers[0].trajectory.type"},
       {"bad_radius.yaml",
@@ -276,13 +270,14 @@ TEST(Scene, BadScenesNameFileLineAndKey) {
       {"bad_quality.yaml", cam + "render: {jpeg_quality: 101}\n", "render.jpeg_quality"},
       // Numbers beyond the integer's range were cast undefinedly (found by fuzz_scene,
       // tests/fuzz/scene/floor_seed_overflow.yaml).
-      {"big_seed.yaml", cam + "floor:\n  seed: 1e49\n", "big_seed.yaml:6: floor.seed: must be an integer in 0..4294967295"},
+      {"big_seed.yaml", cam + "floor:\n  seed: 1e49\n",
+       "big_seed.yaml:6: floor.seed: must be an integer in 0..4294967295"},
       {"big_render_seed.yaml", cam + "render: {seed: -1}\n", "render.seed: must be an integer"},
-      {"big_supersample.yaml", cam + "render: {supersample: 1e300}\n", "render.supersample: must be an integer in 1..8"},
+      {"big_supersample.yaml", cam + "render: {supersample: 1e300}\n",
+       "render.supersample: must be an integer in 1..8"},
       {"big_id.yaml", cam + "markers:\n  - {id: 1e300, x: 1, y: 1}\n", "markers[0].id"},
       {"broken.yaml", cam + "markers: [\n", "YAML"},
-      {"no_control.yaml",
-       cam + "markers:\n  - {id: 1, trajectory: {type: placements, points: [[1, 1]]}}\n",
+      {"no_control.yaml", cam + "markers:\n  - {id: 1, trajectory: {type: placements, points: [[1, 1]]}}\n",
        "markers[0].trajectory.control"},
       {"bad_placement.yaml",
        cam + "markers:\n  - {id: 1, trajectory: {type: placements, control: c.txt, points: "

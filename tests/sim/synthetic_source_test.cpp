@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "ips/core/clock.h"
-#include "ips/detect/detector.h"
 #include "ips/core/error.h"
+#include "ips/detect/detector.h"
 
 namespace {
 
@@ -19,8 +19,7 @@ std::shared_ptr<const ips::sim::Scene> published_scene() {
 
 TEST(SyntheticSource, SourcesOfOneSceneAgreeOnSceneTimeAndTruth) {
   const std::int64_t epoch = ips::monotonic_ns();
-  ips::sim::SyntheticSourceOptions a{
-      .camera = "red", .fps = 20, .realtime = false, .epoch_mono_ns = epoch};
+  ips::sim::SyntheticSourceOptions a{.camera = "red", .fps = 20, .realtime = false, .epoch_mono_ns = epoch};
   ips::sim::SyntheticSourceOptions b = a;
   b.camera = "white";
   ips::sim::SyntheticSource red(published_scene(), a), white(published_scene(), b);
@@ -53,9 +52,7 @@ TEST(SyntheticSource, SourcesOfOneSceneAgreeOnSceneTimeAndTruth) {
         if (d.id != t.id) continue;
         matched = true;
         for (std::size_t i = 0; i < 4; ++i) {
-          EXPECT_LT(std::hypot(d.corners_px[i].x - t.corners_px[i].x,
-                               d.corners_px[i].y - t.corners_px[i].y),
-                    0.5);
+          EXPECT_LT(std::hypot(d.corners_px[i].x - t.corners_px[i].x, d.corners_px[i].y - t.corners_px[i].y), 0.5);
         }
       }
       EXPECT_TRUE(matched) << "marker " << t.id << " not found at frame " << k;
@@ -65,10 +62,8 @@ TEST(SyntheticSource, SourcesOfOneSceneAgreeOnSceneTimeAndTruth) {
 }
 
 TEST(SyntheticSource, RealtimePacingTimesOutBeforeTheFirstFrameIsDue) {
-  ips::sim::SyntheticSourceOptions o{.camera = "black",
-                                     .fps = 30,
-                                     .realtime = true,
-                                     .epoch_mono_ns = ips::monotonic_ns() + 60'000'000'000LL};
+  ips::sim::SyntheticSourceOptions o{
+      .camera = "black", .fps = 30, .realtime = true, .epoch_mono_ns = ips::monotonic_ns() + 60'000'000'000LL};
   ips::sim::SyntheticSource src(published_scene(), o);
   src.open();
   ips::Frame f;
@@ -83,8 +78,8 @@ TEST(SyntheticSource, RealtimeFramesAreNotEarlyAndEndAfterMaxFrames) {
   for (int k = 0; k < 2; ++k) {
     ASSERT_EQ(src.read(f, std::chrono::milliseconds(1000)), ips::FrameSource::ReadStatus::kFrame);
     EXPECT_LE(f.t_mono_ns, ips::monotonic_ns());  // never delivered before its capture time
-    EXPECT_NEAR(static_cast<double>(f.t_real_ns - f.t_mono_ns),
-                static_cast<double>(ips::realtime_minus_monotonic_ns()), 5e6);
+    EXPECT_NEAR(static_cast<double>(f.t_real_ns - f.t_mono_ns), static_cast<double>(ips::realtime_minus_monotonic_ns()),
+                5e6);
   }
   EXPECT_EQ(src.read(f, std::chrono::milliseconds(10)), ips::FrameSource::ReadStatus::kEnd);
 }
@@ -93,8 +88,8 @@ TEST(SyntheticSource, RenderAheadDeliversAfterTheTransportDelayTheSameFrames) {
   // Frames rendered ahead on the source's own thread are handed over at capture + delay, and
   // are the very frames the synchronous path renders (same scene time, same noise, same JPEG).
   const std::int64_t epoch = ips::monotonic_ns() + 300'000'000;  // leaves time to render ahead
-  ips::sim::SyntheticSourceOptions o{.camera = "white", .fps = 20, .realtime = true, .epoch_mono_ns = epoch,
-                                     .max_frames = 3};
+  ips::sim::SyntheticSourceOptions o{
+      .camera = "white", .fps = 20, .realtime = true, .epoch_mono_ns = epoch, .max_frames = 3};
   o.render_ahead = true;
   o.transport_delay_ns = 30'000'000;
   o.phase_ns = 7'000'000;
@@ -124,8 +119,7 @@ TEST(SyntheticSource, RenderAheadDeliversAfterTheTransportDelayTheSameFrames) {
 
 TEST(SyntheticSource, RejectsUnknownCameraAndBadRate) {
   EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "green"}), ips::InputError);
-  EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "red", .fps = 0}),
-               ips::InputError);
+  EXPECT_THROW(ips::sim::SyntheticSource(published_scene(), {.camera = "red", .fps = 0}), ips::InputError);
   ips::sim::SyntheticSource src(published_scene(), {.camera = "red"});
   ips::Frame f;
   EXPECT_THROW(src.read(f, std::chrono::milliseconds(1)), ips::SourceError);

@@ -37,9 +37,11 @@ inline std::optional<nlohmann::json> decode_mavlink(const std::vector<std::vecto
                                                     const std::filesystem::path& scratch, std::string& error) {
   {
     std::ofstream out(scratch, std::ios::binary);
-    for (const auto& f : frames) out.write(reinterpret_cast<const char*>(f.data()), static_cast<std::streamsize>(f.size()));
+    for (const auto& f : frames)
+      out.write(reinterpret_cast<const char*>(f.data()), static_cast<std::streamsize>(f.size()));
   }
-  const std::string cmd = "node '" + (mavlink_decoder_dir() / "decode.js").string() + "' '" + scratch.string() + "' 2>&1";
+  const std::string cmd =
+      "node '" + (mavlink_decoder_dir() / "decode.js").string() + "' '" + scratch.string() + "' 2>&1";
   FILE* p = ::popen(cmd.c_str(), "r");
   if (!p) {
     error = "popen failed";

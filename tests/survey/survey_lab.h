@@ -41,9 +41,9 @@ inline const std::vector<LabReference>& lab_references() {
 /// Pause points of the wand (marker 30; marker 31 is 0.4 m further along x): four in each
 /// overlap of neighbouring cameras, so each camera is chained to the next.
 inline std::vector<std::pair<double, double>> lab_wand_points() {
-  return {{1.0, 1.95}, {2.2, 2.35}, {3.2, 1.95}, {4.0, 2.3},   // a/b
-          {3.9, 4.15}, {2.8, 3.8},  {1.9, 4.2},  {0.9, 3.85},  // b/c
-          {1.0, 5.65}, {2.1, 6.0},  {3.1, 5.6},  {4.0, 5.95}}; // c/d
+  return {{1.0, 1.95}, {2.2, 2.35}, {3.2, 1.95}, {4.0, 2.3},    // a/b
+          {3.9, 4.15}, {2.8, 3.8},  {1.9, 4.2},  {0.9, 3.85},   // b/c
+          {1.0, 5.65}, {2.1, 6.0},  {3.1, 5.6},  {4.0, 5.95}};  // c/d
 }
 
 /// The scene YAML; `calib_dir` is the absolute calib_data directory; `pause` the wand's

@@ -250,13 +250,13 @@ TEST(SurveySolve, CommandWritesPlaneModelAndRefusesAnotherConfig) {
             0)
       << test::read_file(log);
   // `ips record` refuses to overwrite a session and a bad --seconds, before opening a camera.
-  EXPECT_EQ(test::run({test::bin("ips"), "record", "--config", (dir / "ipsd.yaml").string(), "--seconds", "5",
-                       "--out", (dir / "session").string()},
+  EXPECT_EQ(test::run({test::bin("ips"), "record", "--config", (dir / "ipsd.yaml").string(), "--seconds", "5", "--out",
+                       (dir / "session").string()},
                       log, limit),
             2);
   EXPECT_NE(test::read_file(log).find("already holds a session"), std::string::npos) << test::read_file(log);
-  EXPECT_EQ(test::run({test::bin("ips"), "record", "--config", (dir / "ipsd.yaml").string(), "--seconds", "0",
-                       "--out", (dir / "new").string()},
+  EXPECT_EQ(test::run({test::bin("ips"), "record", "--config", (dir / "ipsd.yaml").string(), "--seconds", "0", "--out",
+                       (dir / "new").string()},
                       log, limit),
             2);
   EXPECT_FALSE(fs::exists(dir / "new"));

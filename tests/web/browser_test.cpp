@@ -12,21 +12,21 @@
 #if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
-#include <regex>
 #include <map>
+#include <regex>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "../daemon/bodies_lab_scene.h"
+#include "../daemon/plane_model.h"
+#include "../daemon/process_util.h"
 #include "http_client.h"
 #include "ips/core/clock.h"
 #include "ips/output/packet_codec.h"
 #include "ips/sim/scene.h"
-#include "../daemon/bodies_lab_scene.h"
-#include "../daemon/plane_model.h"
-#include "../daemon/process_util.h"
 #include "published_scene.h"
 
 namespace ips {
@@ -55,7 +55,9 @@ class WebBrowserTest : public ::testing::Test {
       markers += "  - {id: " + std::to_string(p.id) + ", length: 0.20, x: " + std::to_string(p.x) +
                  ", y: " + std::to_string(p.y) + ", height: " + std::to_string(p.height) +
                  ", yaw_deg: " + std::to_string(p.yaw_deg) + "}\n";
-    markers += "  - {id: 3, length: 0.20, height: 0.12, trajectory: {type: circle, center: [2.4, 2.4], radius: 0.8, speed: 0.3}}\n";
+    markers +=
+        "  - {id: 3, length: 0.20, height: 0.12, trajectory: {type: circle, center: [2.4, 2.4], radius: 0.8, speed: "
+        "0.3}}\n";
     markers += std::string("bodies:\n") + test::kBodiesLabLong + "    x: " + std::to_string(kBodyX) +
                "\n    y: " + std::to_string(kBodyY) + "\n    yaw_deg: " + std::to_string(kBodyYawDeg) + "\n";
     std::ofstream(*dir_ / "scene.yaml") << test::published_scene_with(markers);
@@ -67,8 +69,9 @@ class WebBrowserTest : public ::testing::Test {
   }
 
   void SetUp() override {
-    if (kSanitized) GTEST_SKIP() << "Chromium and three rendering cameras are too slow under the sanitizers; "
-                                    "web_server_test.cpp runs the server's handlers there";
+    if (kSanitized)
+      GTEST_SKIP() << "Chromium and three rendering cameras are too slow under the sanitizers; "
+                      "web_server_test.cpp runs the server's handlers there";
     port_ = test::free_tcp_port();
     const fs::path cfg = *dir_ / "ipsd.yaml";
     std::string c = "cameras:\n";
@@ -163,14 +166,16 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
   // that the virtual-time budget can run out and the DOM is dumped as a person sees it.
   const fs::path dom_file = *dir_ / "dom.html";
   const std::string url = "http://127.0.0.1:" + std::to_string(port_) + "/?updates=12";
-  const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --user-data-dir=" +
-                          (*dir_ / "chromium").string() + " --window-size=1400,900 --virtual-time-budget=4000" +
-                          " --dump-dom '" + url + "' > " + dom_file.string() + " 2>" + (*dir_ / "chromium.log").string();
+  const std::string cmd =
+      "chromium --headless --no-sandbox --disable-gpu --user-data-dir=" + (*dir_ / "chromium").string() +
+      " --window-size=1400,900 --virtual-time-budget=4000" + " --dump-dom '" + url + "' > " + dom_file.string() +
+      " 2>" + (*dir_ / "chromium.log").string();
   ASSERT_EQ(test::run({"/bin/sh", "-c", cmd}, *dir_ / "run.log", std::chrono::seconds(45)), 0)
       << test::read_file(*dir_ / "chromium.log");
   const auto after = nlohmann::json::parse(test::http_get(port_, "/status.json").body);
   const std::string dom = test::read_file(dom_file);
-  ASSERT_NE(dom.find("data-done=\"1\""), std::string::npos) << "the page did not get 12 updates:\n" << dom.substr(0, 3000);
+  ASSERT_NE(dom.find("data-done=\"1\""), std::string::npos) << "the page did not get 12 updates:\n"
+                                                            << dom.substr(0, 3000);
 
   // Markers: drawn at their world position (transform = translate(x, -y)), where the
   // simulator parked them, where the stream says they are, named, with their cameras.
@@ -200,7 +205,8 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
     }
   }
   EXPECT_EQ(parked_seen, 2);
-  for (const auto& m : markers) EXPECT_TRUE(m.at("data-id") != "7" && m.at("data-id") != "8") << "a body's marker drawn as a marker";
+  for (const auto& m : markers)
+    EXPECT_TRUE(m.at("data-id") != "7" && m.at("data-id") != "8") << "a body's marker drawn as a marker";
 
   // The body: drawn at the robot's origin, turned by its yaw (the simulator's truth), its two
   // plates from the layout, named, with its markers, where the stream says; a row in the table.
@@ -217,7 +223,8 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
   EXPECT_NEAR(std::remainder(byaw - kBodyYawDeg * M_PI / 180, 2 * M_PI), 0, 0.05);
   std::smatch bt;
   const std::string body_transform = b.at("transform");
-  ASSERT_TRUE(std::regex_search(body_transform, bt, std::regex("translate\\(([-0-9.]+) ([-0-9.]+)\\)"))) << body_transform;
+  ASSERT_TRUE(std::regex_search(body_transform, bt, std::regex("translate\\(([-0-9.]+) ([-0-9.]+)\\)")))
+      << body_transform;
   EXPECT_NEAR(std::stod(bt[1]), bx, 1e-3);
   EXPECT_NEAR(std::stod(bt[2]), -by, 1e-3);
   const auto shape = elements(dom, "g", "class=\"shape");
@@ -239,8 +246,10 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
     const double cx = (v[0] + v[2] + v[4] + v[6]) / 4, cy = -(v[1] + v[3] + v[5] + v[7]) / 4;
     EXPECT_NEAR(std::hypot(v[2] - v[0], v[3] - v[1]), 0.10, 1e-6);
     const double ahead = p.at("data-id") == "7" ? 0.2 : -0.2, yaw = kBodyYawDeg * M_PI / 180;
-    EXPECT_NEAR(bx + std::cos(byaw) * cx - std::sin(byaw) * cy, kBodyX + ahead * std::cos(yaw), 0.03) << p.at("data-id");
-    EXPECT_NEAR(by + std::sin(byaw) * cx + std::cos(byaw) * cy, kBodyY + ahead * std::sin(yaw), 0.03) << p.at("data-id");
+    EXPECT_NEAR(bx + std::cos(byaw) * cx - std::sin(byaw) * cy, kBodyX + ahead * std::cos(yaw), 0.03)
+        << p.at("data-id");
+    EXPECT_NEAR(by + std::sin(byaw) * cx + std::cos(byaw) * cy, kBodyY + ahead * std::sin(yaw), 0.03)
+        << p.at("data-id");
   }
   EXPECT_EQ(elements(dom, "polyline", "class=\"body-trail").size(), 1u);
   ASSERT_TRUE(stream_bodies.count("long"));
@@ -284,9 +293,10 @@ TEST_F(WebBrowserTest, ThePageShowsTheMarkersCamerasAndHealthAsTheDaemonSeesThem
 // The page in headless Chromium: `--dump-dom` of `query` into `out` (true when Chromium exited 0).
 bool dump_dom(const fs::path& dir, int port, const std::string& query, const fs::path& out) {
   const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/" + query;
-  const std::string cmd = "chromium --headless --no-sandbox --disable-gpu --user-data-dir=" + (dir / "chromium").string() +
-                          " --window-size=1400,900 --virtual-time-budget=4000 --dump-dom '" + url + "' > " +
-                          out.string() + " 2>" + (dir / "chromium.log").string();
+  const std::string cmd =
+      "chromium --headless --no-sandbox --disable-gpu --user-data-dir=" + (dir / "chromium").string() +
+      " --window-size=1400,900 --virtual-time-budget=4000 --dump-dom '" + url + "' > " + out.string() + " 2>" +
+      (dir / "chromium.log").string();
   return test::run({"/bin/sh", "-c", cmd}, dir / "run.log", std::chrono::seconds(45)) == 0;
 }
 
@@ -343,8 +353,10 @@ TEST_F(WebBrowserTest, MarkersTableShowsTheStreamsNumbersAndRejectedCandidatesOn
     EXPECT_NEAR(x, stream.at(p.id)["x"].get<double>(), 1e-3) << p.id;
     EXPECT_NEAR(y, stream.at(p.id)["y"].get<double>(), 1e-3) << p.id;
     EXPECT_NEAR(z, stream.at(p.id)["z"].get<double>(), 1e-3) << p.id;
-    EXPECT_NEAR(std::remainder(std::stod(r.at("marker_yaw_deg")) - stream.at(p.id)["yaw"].get<double>() * 180 / M_PI, 360.0),
-                0, 0.06) << p.id;  // 1 mm at the marker's 10 cm half edge
+    EXPECT_NEAR(
+        std::remainder(std::stod(r.at("marker_yaw_deg")) - stream.at(p.id)["yaw"].get<double>() * 180 / M_PI, 360.0), 0,
+        0.06)
+        << p.id;  // 1 mm at the marker's 10 cm half edge
   }
   EXPECT_EQ(parked_rows, 2);
   EXPECT_FALSE(rows.count(7) || rows.count(8)) << "a body's marker listed as a marker";
@@ -396,7 +408,8 @@ TEST_F(WebBrowserTest, CameraViewOutlinesTheDaemonsDetectionsWhereOpenCvFindsThe
   const auto info = nlohmann::json::parse(test::http_get(port_, "/camera/white.json").body);
   ASSERT_EQ(jpg.status, 200);
   const cv::Mat image = cv::imdecode(std::vector<unsigned char>(jpg.body.begin(), jpg.body.end()), cv::IMREAD_COLOR);
-  const cv::Mat bare = cv::imdecode(std::vector<unsigned char>(plain.body.begin(), plain.body.end()), cv::IMREAD_GRAYSCALE);
+  const cv::Mat bare =
+      cv::imdecode(std::vector<unsigned char>(plain.body.begin(), plain.body.end()), cv::IMREAD_GRAYSCALE);
   ASSERT_EQ(image.cols, info["width"].get<int>());
   ASSERT_GE(info["detections"].size(), 2u) << info.dump();
   std::vector<std::vector<cv::Point2f>> corners;

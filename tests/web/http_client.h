@@ -142,7 +142,8 @@ class EventStream {
         }
       }
       const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
-      if (left.count() <= 0 || !client_.receive(buffer_, static_cast<int>(std::min<long>(left.count(), 100)))) return {};
+      if (left.count() <= 0 || !client_.receive(buffer_, static_cast<int>(std::min<long>(left.count(), 100))))
+        return {};
     }
   }
   const std::string& status_line() const { return status_; }

@@ -14,8 +14,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "http_client.h"
-#include "ips/core/clock.h"
 #include "ips/config/config.h"
+#include "ips/core/clock.h"
 #include "ips/core/error.h"
 #include "ips/web/web.h"
 
@@ -64,13 +64,14 @@ std::string config_with(const std::string& web) {
 TEST(WebConfig, ListenIsCheckedAndNamedInErrors) {
   const DaemonConfig off = parse_config(config_with(""), "t.yaml");
   EXPECT_TRUE(off.web.listen.empty());
-  const DaemonConfig on = parse_config(config_with("web: {listen: \"localhost:8081\", floor: [0, 0, 4.88, 4.88]}\n"), "t.yaml");
+  const DaemonConfig on =
+      parse_config(config_with("web: {listen: \"localhost:8081\", floor: [0, 0, 4.88, 4.88]}\n"), "t.yaml");
   EXPECT_EQ(on.web.host, "127.0.0.1");
   EXPECT_EQ(on.web.port, 8081);
   EXPECT_EQ(on.web.floor.size(), 4u);
-  for (const std::string bad : {"web: {listen: 8080}\n", "web: {listen: \"127.0.0.1:99999\"}\n",
-                                "web: {listen: \"nohost:80\"}\n", "web: {listen: \"1.2.3:80\"}\n",
-                                "web: {listen: \"127.0.0.1:\"}\n", "web: {}\n"}) {
+  for (const std::string bad :
+       {"web: {listen: 8080}\n", "web: {listen: \"127.0.0.1:99999\"}\n", "web: {listen: \"nohost:80\"}\n",
+        "web: {listen: \"1.2.3:80\"}\n", "web: {listen: \"127.0.0.1:\"}\n", "web: {}\n"}) {
     try {
       parse_config(config_with(bad), "t.yaml");
       ADD_FAILURE() << "accepted: " << bad;
@@ -79,7 +80,8 @@ TEST(WebConfig, ListenIsCheckedAndNamedInErrors) {
       EXPECT_NE(std::string(e.what()).find("t.yaml:"), std::string::npos) << e.what();
     }
   }
-  EXPECT_THROW(parse_config(config_with("web: {listen: \"127.0.0.1:80\", floor: [1, 2, 0, 3]}\n"), "t.yaml"), InputError);
+  EXPECT_THROW(parse_config(config_with("web: {listen: \"127.0.0.1:80\", floor: [1, 2, 0, 3]}\n"), "t.yaml"),
+               InputError);
   EXPECT_THROW(parse_config(config_with("web: {listen: \"127.0.0.1:80\", colour: red}\n"), "t.yaml"), InputError);
 }
 
@@ -98,7 +100,9 @@ FrameSnapshot synthetic_frame(std::uint64_t sequence) {
     m.copyTo(s.gray(cv::Rect(at, cv::Size(120, 120))));
     MarkerDetection d;
     d.id = id;
-    d.corners_px = {{{double(at.x), double(at.y)}, {at.x + 120.0, double(at.y)}, {at.x + 120.0, at.y + 120.0},
+    d.corners_px = {{{double(at.x), double(at.y)},
+                     {at.x + 120.0, double(at.y)},
+                     {at.x + 120.0, at.y + 120.0},
                      {double(at.x), at.y + 120.0}}};
     s.detections.push_back(d);
   }
@@ -205,7 +209,8 @@ TEST_F(WebServerTest, CameraViewDrawsTheDetectionsWhereTheyAre) {
   EXPECT_DOUBLE_EQ(info["scale"].get<double>(), 0.5);
   ASSERT_EQ(info["detections"].size(), 2u);
   const cv::Mat image = cv::imdecode(std::vector<unsigned char>(jpg.body.begin(), jpg.body.end()), cv::IMREAD_COLOR);
-  const cv::Mat bare = cv::imdecode(std::vector<unsigned char>(plain.body.begin(), plain.body.end()), cv::IMREAD_GRAYSCALE);
+  const cv::Mat bare =
+      cv::imdecode(std::vector<unsigned char>(plain.body.begin(), plain.body.end()), cv::IMREAD_GRAYSCALE);
   ASSERT_EQ(image.cols, 960);
   ASSERT_EQ(bare.cols, 960);
   // Independent truth: OpenCV's own detector on the served frame finds the markers where the
@@ -314,7 +319,8 @@ TEST_F(WebServerTest, StreamsRateLimitedUpdatesWithBoundedQueuesAndSurvivesAbrup
   // fill them slowly, so its queue need not have overflowed yet; the fan-out never blocked
   // (the good client got everything above). Its disconnect frees its slot.
   stalled.socket().reset();
-  for (int i = 0; i < 40 && server_->counters().clients > 1; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  for (int i = 0; i < 40 && server_->counters().clients > 1; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_EQ(server_->counters().clients, 1u);
 }
 
@@ -404,7 +410,8 @@ TEST(WebRoute, HeadIsRoutedLikeGetAndOtherMethodsAreRefused) {
     EXPECT_TRUE(head.head) << path;
     EXPECT_FALSE(get.head) << path;
   }
-  for (const std::string m : {"PUT", "OPTIONS", "head", "TRACE"}) EXPECT_EQ(route_request(m, "/").kind, K::kBadMethod) << m;
+  for (const std::string m : {"PUT", "OPTIONS", "head", "TRACE"})
+    EXPECT_EQ(route_request(m, "/").kind, K::kBadMethod) << m;
 }
 
 TEST(WebConfig, ConnectionLimitsAndTimeoutHaveDefaultsAndRanges) {
@@ -413,14 +420,15 @@ TEST(WebConfig, ConnectionLimitsAndTimeoutHaveDefaultsAndRanges) {
   EXPECT_EQ(d.web.max_per_address, 8);
   EXPECT_DOUBLE_EQ(d.web.request_timeout_s, 1.5);
   const DaemonConfig c = parse_config(
-      config_with("web: {listen: \"127.0.0.1:8081\", max_connections: 300, max_per_address: 3, request_timeout: 2.5}\n"),
+      config_with(
+          "web: {listen: \"127.0.0.1:8081\", max_connections: 300, max_per_address: 3, request_timeout: 2.5}\n"),
       "t.yaml");
   EXPECT_EQ(c.web.max_connections, 300);
   EXPECT_EQ(c.web.max_per_address, 3);
   EXPECT_DOUBLE_EQ(c.web.request_timeout_s, 2.5);
   const std::pair<std::string, std::string> bad[] = {
-      {"max_connections: 8", "web.max_connections"}, {"max_connections: 5000", "web.max_connections"},
-      {"max_per_address: 0", "web.max_per_address"}, {"request_timeout: 0.05", "web.request_timeout"},
+      {"max_connections: 8", "web.max_connections"},   {"max_connections: 5000", "web.max_connections"},
+      {"max_per_address: 0", "web.max_per_address"},   {"request_timeout: 0.05", "web.request_timeout"},
       {"request_timeout: 600", "web.request_timeout"}, {"request_timeout: soon", "web.request_timeout"}};
   for (const auto& [yaml, key] : bad) {
     try {

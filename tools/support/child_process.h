@@ -24,8 +24,7 @@ namespace ips::support {
 /// Starts argv[0] with stdout+stderr appended to `log` and, if `stdin_fd` >= 0, that file
 /// descriptor (e.g. the read end of a pipe a test types into) as its standard input.
 /// Returns the pid.
-inline pid_t spawn(const std::vector<std::string>& argv, const std::filesystem::path& log,
-                   int stdin_fd = -1) {
+inline pid_t spawn(const std::vector<std::string>& argv, const std::filesystem::path& log, int stdin_fd = -1) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);

@@ -1,5 +1,6 @@
 // A UDP receiver on 127.0.0.1 at a free port the kernel chooses: where tests and benchmarks
-// point ipsd's output and read what it sends; and a free loopback port for anything else. Header-only; shared by tests/ and tools/bench_*.
+// point ipsd's output and read what it sends; and a free loopback port for anything else. Header-only; shared by tests/
+// and tools/bench_*.
 #pragma once
 
 #include <arpa/inet.h>

@@ -38,7 +38,8 @@ inline pid_t spawn_with_env(const std::vector<std::string>& argv, const std::vec
   for (char** e = environ; *e; ++e) {
     const std::string kv = *e;
     bool replaced = false;
-    for (const auto& x : extra_env) replaced = replaced || kv.substr(0, kv.find('=') + 1) == x.substr(0, x.find('=') + 1);
+    for (const auto& x : extra_env)
+      replaced = replaced || kv.substr(0, kv.find('=') + 1) == x.substr(0, x.find('=') + 1);
     if (!replaced) env.push_back(kv);
   }
   env.insert(env.end(), extra_env.begin(), extra_env.end());
@@ -87,8 +88,8 @@ inline ProcSample proc_sample(pid_t pid) {
   }
   std::error_code ec;
   int fds = 0;
-  for (auto it = std::filesystem::directory_iterator(base / "fd", ec); !ec && it != std::filesystem::directory_iterator();
-       it.increment(ec))
+  for (auto it = std::filesystem::directory_iterator(base / "fd", ec);
+       !ec && it != std::filesystem::directory_iterator(); it.increment(ec))
     ++fds;
   if (!ec) s.fds = fds;
   return s;
@@ -179,8 +180,9 @@ inline int stream_garbage(Connect connect, int count, int idle, int hold_ms, boo
     ++made;
     auto b = random_bytes(rng, 4096);
     if (http && i % 3 == 0) {
-      const std::string junk = "GET /" + std::string(b.begin(), b.begin() + static_cast<long>(std::min<std::size_t>(b.size(), 200))) +
-                               " HTTP/1.1\r\nHost: x\r\nContent-Length: -5\r\n\r\n";
+      const std::string junk =
+          "GET /" + std::string(b.begin(), b.begin() + static_cast<long>(std::min<std::size_t>(b.size(), 200))) +
+          " HTTP/1.1\r\nHost: x\r\nContent-Length: -5\r\n\r\n";
       b.assign(junk.begin(), junk.end());
     }
     (void)::send(fd, b.data(), b.size(), MSG_NOSIGNAL);

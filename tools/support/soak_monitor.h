@@ -56,7 +56,9 @@ struct RecoveryProbe {
 class StreamMonitor {
  public:
   StreamMonitor(int cameras, std::int64_t gap_threshold_ns)
-      : cameras_(cameras), threshold_ns_(gap_threshold_ns), last_arrival_(static_cast<std::size_t>(cameras), 0),
+      : cameras_(cameras),
+        threshold_ns_(gap_threshold_ns),
+        last_arrival_(static_cast<std::size_t>(cameras), 0),
         records_(static_cast<std::size_t>(cameras), 0) {}
   ~StreamMonitor() { stop(); }
   StreamMonitor(const StreamMonitor&) = delete;
@@ -120,7 +122,8 @@ class StreamMonitor {
 
   void on_datagram(const ips::Datagram& d, std::int64_t now) {
     ++totals_.datagrams;
-    if (totals_.last_datagram_ns != 0) totals_.widest_silence_ns = std::max(totals_.widest_silence_ns, now - totals_.last_datagram_ns);
+    if (totals_.last_datagram_ns != 0)
+      totals_.widest_silence_ns = std::max(totals_.widest_silence_ns, now - totals_.last_datagram_ns);
     totals_.last_datagram_ns = now;
     // The sequence restarts only when the outputs are rebuilt (a reload changing them; the
     // soak's good reloads keep them), so a jump forward is a datagram lost on the way.
@@ -136,7 +139,8 @@ class StreamMonitor {
         if (!((m.camera_mask >> c) & 1u)) continue;
         const auto k = static_cast<std::size_t>(c);
         ++records_[k];
-        if (last_arrival_[k] != 0 && now - last_arrival_[k] > threshold_ns_) gaps_.push_back({c, last_arrival_[k], now});
+        if (last_arrival_[k] != 0 && now - last_arrival_[k] > threshold_ns_)
+          gaps_.push_back({c, last_arrival_[k], now});
         last_arrival_[k] = now;
         for (auto& p : probes_)
           if (p.first_arrival[k] == 0 && capture > p.after_ns) p.first_arrival[k] = now;
@@ -205,7 +209,9 @@ class NotifyListener {
       const std::int64_t now = ips::monotonic_ns();
       std::lock_guard lock(mutex_);
       // One message may carry several assignments, one per line.
-      auto has = [&](const char* kv) { return ("\n" + msg + "\n").find(std::string("\n") + kv + "\n") != std::string::npos; };
+      auto has = [&](const char* kv) {
+        return ("\n" + msg + "\n").find(std::string("\n") + kv + "\n") != std::string::npos;
+      };
       if (has("WATCHDOG=1")) {
         if (f_.last_ping_ns != 0) {
           f_.widest_ping_interval_ns = std::max(f_.widest_ping_interval_ns, now - f_.last_ping_ns);

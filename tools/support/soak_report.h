@@ -3,13 +3,13 @@
 // Header-only; used by tools/bench_soak.cpp only.
 #pragma once
 
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
-#include <unistd.h>
 #include <optional>
 #include <string>
 #include <vector>
@@ -73,7 +73,8 @@ class Report {
       for (const auto& f : faults_) {
         const std::int64_t until = f.recovered_ns ? f.recovered_ns : t_end_;
         if (f.start_ns <= g.to_ns) row.context = f.kind + " " + f.detail;
-        if (g.from_ns < until && g.to_ns > f.start_ns && f.excused[static_cast<std::size_t>(g.camera)]) row.excused = true;
+        if (g.from_ns < until && g.to_ns > f.start_ns && f.excused[static_cast<std::size_t>(g.camera)])
+          row.excused = true;
       }
       gaps_.push_back(row);
     }
@@ -112,9 +113,14 @@ class Report {
   nlohmann::json json() const {
     using nlohmann::json;
     json j;
-    j["parameters"] = {{"seconds", seconds_}, {"fps", fps_}, {"fault_period_s", period_}, {"gap_threshold_s", gap_s_},
-                       {"watchdog_usec", static_cast<long long>(watchdog_s_ * 1e6)}, {"cameras", cameras_},
-                       {"nice_asked", nice_asked_}, {"ipsd_nice", nice_actual_ ? json(*nice_actual_) : json(nullptr)}};
+    j["parameters"] = {{"seconds", seconds_},
+                       {"fps", fps_},
+                       {"fault_period_s", period_},
+                       {"gap_threshold_s", gap_s_},
+                       {"watchdog_usec", static_cast<long long>(watchdog_s_ * 1e6)},
+                       {"cameras", cameras_},
+                       {"nice_asked", nice_asked_},
+                       {"ipsd_nice", nice_actual_ ? json(*nice_actual_) : json(nullptr)}};
     j["measured_s"] = 1e-9 * static_cast<double>(t_end_ - t0_);
     j["passed"] = passed();
     j["crashes"] = died_ ? 1 : 0;
@@ -127,35 +133,59 @@ class Report {
       j["fds"] = {{"start", a.proc.fds}, {"end", b.proc.fds}};
     }
     const Memory m = memory();
-    j["memory"] = {{"warmup_s", m.warmup_s},      {"rss_mib_after_warmup", m.first},     {"rss_mib_end", m.last},
-                   {"rss_mib_min_after_warmup", m.min}, {"rss_mib_max_after_warmup", m.max},
-                   {"slope_mib_per_hour", m.slope}, {"max_slope_mib_per_hour", kMaxMemoryTrend},
+    j["memory"] = {{"warmup_s", m.warmup_s},
+                   {"rss_mib_after_warmup", m.first},
+                   {"rss_mib_end", m.last},
+                   {"rss_mib_min_after_warmup", m.min},
+                   {"rss_mib_max_after_warmup", m.max},
+                   {"slope_mib_per_hour", m.slope},
+                   {"max_slope_mib_per_hour", kMaxMemoryTrend},
                    {"flat", memory_flat() ? json(*memory_flat()) : json(nullptr)}};
     j["per_minute"] = json::array();
     for (const std::size_t i : per_minute()) {
       const Sample& s = samples_[i];
-      j["per_minute"].push_back({{"t_s", rel(s.t_ns)}, {"rss_mib", s.proc.rss_kib / 1024.0}, {"threads", s.proc.threads},
-                                 {"fds", s.proc.fds}, {"load1", s.load}, {"ipsd_cpu_pct", cpu_pct(i)}, {"driver_drops", s.drops},
+      j["per_minute"].push_back({{"t_s", rel(s.t_ns)},
+                                 {"rss_mib", s.proc.rss_kib / 1024.0},
+                                 {"threads", s.proc.threads},
+                                 {"fds", s.proc.fds},
+                                 {"load1", s.load},
+                                 {"ipsd_cpu_pct", cpu_pct(i)},
+                                 {"driver_drops", s.drops},
                                  {"corrupt_frames", s.corrupt}});
     }
-    j["stream"] = {{"datagrams", totals_.datagrams}, {"malformed", totals_.malformed},
-                   {"datagrams_lost", totals_.sequence_lost}, {"sequence_restarts", totals_.sequence_back},
-                   {"records_per_camera", totals_.records}, {"widest_silence_s", 1e-9 * static_cast<double>(totals_.widest_silence_ns)}};
+    j["stream"] = {{"datagrams", totals_.datagrams},
+                   {"malformed", totals_.malformed},
+                   {"datagrams_lost", totals_.sequence_lost},
+                   {"sequence_restarts", totals_.sequence_back},
+                   {"records_per_camera", totals_.records},
+                   {"widest_silence_s", 1e-9 * static_cast<double>(totals_.widest_silence_ns)}};
     j["gaps"] = json::array();
     for (const auto& g : gaps_)
-      j["gaps"].push_back({{"camera", g.gap.camera}, {"at_s", rel(g.gap.from_ns)}, {"length_s", 1e-9 * static_cast<double>(g.gap.to_ns - g.gap.from_ns)},
-                           {"excused", g.excused}, {"during", g.context}, {"load1", g.load}, {"camera_driver_drops_around", g.drops}});
+      j["gaps"].push_back({{"camera", g.gap.camera},
+                           {"at_s", rel(g.gap.from_ns)},
+                           {"length_s", 1e-9 * static_cast<double>(g.gap.to_ns - g.gap.from_ns)},
+                           {"excused", g.excused},
+                           {"during", g.context},
+                           {"load1", g.load},
+                           {"camera_driver_drops_around", g.drops}});
     j["unexcused_gaps"] = unexcused_gaps();
     j["unexcused_gaps_with_driver_drops"] =
         std::count_if(gaps_.begin(), gaps_.end(), [](const GapRow& g) { return !g.excused && g.drops > 0; });
-    j["watchdog"] = {{"pings", notify_.pings}, {"missed", notify_.missed},
+    j["watchdog"] = {{"pings", notify_.pings},
+                     {"missed", notify_.missed},
                      {"widest_interval_s", 1e-9 * static_cast<double>(notify_.widest_ping_interval_ns)},
-                     {"ready", notify_.ready}, {"reloading", notify_.reloading}, {"stopping", notify_.stopping}};
+                     {"ready", notify_.ready},
+                     {"reloading", notify_.reloading},
+                     {"stopping", notify_.stopping}};
     j["faults"] = json::array();
     for (const auto& f : faults_)
-      j["faults"].push_back({{"at_s", rel(f.start_ns)}, {"kind", f.kind}, {"detail", f.detail}, {"check", f.check},
-                             {"recovery_s", f.recovered_ns ? json(1e-9 * static_cast<double>(f.recovered_ns - f.end_ns)) : json(nullptr)},
-                             {"load1", load_at(f.start_ns)}});
+      j["faults"].push_back(
+          {{"at_s", rel(f.start_ns)},
+           {"kind", f.kind},
+           {"detail", f.detail},
+           {"check", f.check},
+           {"recovery_s", f.recovered_ns ? json(1e-9 * static_cast<double>(f.recovered_ns - f.end_ns)) : json(nullptr)},
+           {"load1", load_at(f.start_ns)}});
     j["final_status"] = final_status_;
     return j;
   }
@@ -173,16 +203,19 @@ class Report {
     for (const auto& s : samples_) lmin = std::min(lmin, s.load), lmax = std::max(lmax, s.load), lsum += s.load;
     add("load average (1 min) over the run: min %.2f, mean %.2f, max %.2f (2 cores, shared)\n", lmin,
         samples_.empty() ? 0.0 : lsum / static_cast<double>(samples_.size()), lmax);
-    add("ipsd niceness: %s (asked %d)\n", nice_actual_ ? std::to_string(*nice_actual_).c_str() : "unknown", nice_asked_);
+    add("ipsd niceness: %s (asked %d)\n", nice_actual_ ? std::to_string(*nice_actual_).c_str() : "unknown",
+        nice_asked_);
     add("crashes: %d; exit status after SIGTERM: %s; sanitizer reports: %d\n", died_ ? 1 : 0,
         exit_status_ ? std::to_string(*exit_status_).c_str() : "none (still running)", sanitizer_lines_);
     if (!samples_.empty())
-      add("threads start/end: %d / %d; fds start/end: %d / %d\n", samples_.front().proc.threads, samples_.back().proc.threads,
-          samples_.front().proc.fds, samples_.back().proc.fds);
+      add("threads start/end: %d / %d; fds start/end: %d / %d\n", samples_.front().proc.threads,
+          samples_.back().proc.threads, samples_.front().proc.fds, samples_.back().proc.fds);
     const Memory m = memory();
     add("resident memory after %.0f s warm-up: %.1f MiB, end %.1f MiB, range %.1f-%.1f MiB, trend %+.2f MiB/h: %s\n",
         m.warmup_s, m.first, m.last, m.min, m.max, m.slope,
-        !memory_flat() ? "not judged (run < 30 min)" : *memory_flat() ? "flat (<= 10 MiB/h)" : "NOT FLAT (> 10 MiB/h)");
+        !memory_flat()   ? "not judged (run < 30 min)"
+        : *memory_flat() ? "flat (<= 10 MiB/h)"
+                         : "NOT FLAT (> 10 MiB/h)");
     add("watchdog (WATCHDOG_USEC %.0f s): %llu pings, widest interval %.2f s, missed %llu\n", watchdog_s_,
         static_cast<unsigned long long>(notify_.pings), 1e-9 * static_cast<double>(notify_.widest_ping_interval_ns),
         static_cast<unsigned long long>(notify_.missed));
@@ -192,13 +225,15 @@ class Report {
     const int starved = static_cast<int>(
         std::count_if(gaps_.begin(), gaps_.end(), [](const GapRow& g) { return !g.excused && g.drops > 0; }));
     add("camera silences > %.1f s: %d excused (camera unplugged / restarting), %d NOT excused, of which %d with that\n"
-        "camera's driver drops around them (frames lost because the daemon had no buffer queued: it did not get the CPU)\n",
+        "camera's driver drops around them (frames lost because the daemon had no buffer queued: it did not get the "
+        "CPU)\n",
         gap_s_, static_cast<int>(gaps_.size()) - unexcused_gaps(), unexcused_gaps(), starved);
-    t += "\n| minute | resident MiB | threads | fds | load (1 min) | ipsd CPU % (last 10 s) | driver drops (total) |\n|---|---|---|---|---|---|---|\n";
+    t += "\n| minute | resident MiB | threads | fds | load (1 min) | ipsd CPU % (last 10 s) | driver drops (total) "
+         "|\n|---|---|---|---|---|---|---|\n";
     for (const std::size_t i : per_minute()) {
       const Sample& s = samples_[i];
-      add("| %.0f | %.1f | %d | %d | %.2f | %.0f | %llu |\n", rel(s.t_ns) / 60.0, s.proc.rss_kib / 1024.0, s.proc.threads,
-          s.proc.fds, s.load, cpu_pct(i), static_cast<unsigned long long>(s.drops));
+      add("| %.0f | %.1f | %d | %d | %.2f | %.0f | %llu |\n", rel(s.t_ns) / 60.0, s.proc.rss_kib / 1024.0,
+          s.proc.threads, s.proc.fds, s.load, cpu_pct(i), static_cast<unsigned long long>(s.drops));
     }
     t += "\n| fault | count | recovery median / max (s) | checks failed |\n|---|---|---|---|\n";
     for (const std::string kind : {"unplug", "corrupt", "hup-good", "hup-bad", "hup-cams", "garbage", "listener"}) {
@@ -208,22 +243,27 @@ class Report {
         if (f.kind != kind) continue;
         ++n;
         failed += f.check.find("NO") != std::string::npos;
-        if (f.recovered_ns) r.push_back(1e-9 * static_cast<double>(f.recovered_ns - f.end_ns));
-        else ++never;
+        if (f.recovered_ns)
+          r.push_back(1e-9 * static_cast<double>(f.recovered_ns - f.end_ns));
+        else
+          ++never;
       }
       if (n == 0) continue;
       std::sort(r.begin(), r.end());
-      add("| %s | %d | %.2f / %.2f%s | %d |\n", kind.c_str(), n, r.empty() ? NAN : r[r.size() / 2], r.empty() ? NAN : r.back(),
-          never ? (" (" + std::to_string(never) + " never)").c_str() : "", failed);
+      add("| %s | %d | %.2f / %.2f%s | %d |\n", kind.c_str(), n, r.empty() ? NAN : r[r.size() / 2],
+          r.empty() ? NAN : r.back(), never ? (" (" + std::to_string(never) + " never)").c_str() : "", failed);
     }
-    t += "\nrecovery = from the end of the fault (replug, SIGHUP, burst end...) to the first record of every camera captured after it\n";
+    t += "\nrecovery = from the end of the fault (replug, SIGHUP, burst end...) to the first record of every camera "
+         "captured after it\n";
     t += "\nevery fault:\n";
     for (const auto& f : faults_)
       add("  %7.1f s  %-9s %-60s recovery %6.2f s  load %.2f  %s\n", rel(f.start_ns), f.kind.c_str(), f.detail.c_str(),
-          f.recovered_ns ? 1e-9 * static_cast<double>(f.recovered_ns - f.end_ns) : NAN, load_at(f.start_ns), f.check.c_str());
+          f.recovered_ns ? 1e-9 * static_cast<double>(f.recovered_ns - f.end_ns) : NAN, load_at(f.start_ns),
+          f.check.c_str());
     if (!gaps_.empty()) t += "\ncamera silences:\n";
     for (const auto& g : gaps_)
-      add("  %7.1f s  camera %d silent %.2f s  %s  load %.2f  its driver drops in the samples around it %llu  (during/after: %s)\n",
+      add("  %7.1f s  camera %d silent %.2f s  %s  load %.2f  its driver drops in the samples around it %llu  "
+          "(during/after: %s)\n",
           rel(g.gap.from_ns), g.gap.camera, 1e-9 * static_cast<double>(g.gap.to_ns - g.gap.from_ns),
           g.excused ? "excused" : "NOT EXCUSED", g.load, static_cast<unsigned long long>(g.drops), g.context.c_str());
     return t;

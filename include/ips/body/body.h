@@ -38,7 +38,7 @@ struct BodyDef {
 /// The pose of a body in the world.
 struct BodyPose {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< body origin, world, metres
-  double yaw = 0.0;  ///< heading of the body x axis from world +x towards +y, radians
+  double yaw = 0.0;                                    ///< heading of the body x axis from world +x towards +y, radians
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();  ///< body -> world rotation
 };
 
@@ -81,7 +81,7 @@ BodyDef parse_body(const YAML::Node& node, const std::string& key, const std::ve
 
 /// Checks a list of bodies against each other: unique names, no marker id used by two
 /// bodies. Calls `fail(node_of_body_i, key, what)` through `at(i)`.
-void check_bodies(const std::vector<BodyDef>& bodies, const std::vector<YAML::Node>& nodes,
-                  const std::string& list_key, const BodyFail& fail);
+void check_bodies(const std::vector<BodyDef>& bodies, const std::vector<YAML::Node>& nodes, const std::string& list_key,
+                  const BodyFail& fail);
 
 }  // namespace ips

@@ -16,9 +16,9 @@
 #include <Eigen/Geometry>
 
 #include "ips/body/body.h"
+#include "ips/core/observation.h"
 #include "ips/fusion/fusion.h"
 #include "ips/mapping/mapper.h"
-#include "ips/core/observation.h"
 
 namespace ips {
 
@@ -46,17 +46,17 @@ bool camera_pose_of(const Mapper& mapper, CameraPose& pose);
 
 /// What one camera saw of one body in one frame, from one marker.
 struct BodyObservation {
-  int body = -1;            ///< index into the estimator's bodies
-  int id = -1;              ///< marker id
+  int body = -1;  ///< index into the estimator's bodies
+  int id = -1;    ///< marker id
   int camera_index = -1;
   FaceClass face = FaceClass::kOther;  ///< the class the view was decided to be
   /// Indices (into the body's markers) of the faces this view can be: one, or several faces
   /// that share the id and class (a cube's sides), told apart at fusion by the body's yaw.
   std::vector<int> faces;
-  std::vector<double> yaws;            ///< body yaw for each candidate face, radians
-  std::vector<Eigen::Quaterniond> qs;  ///< body orientation for each candidate (non-ground)
-  std::vector<Eigen::Vector3d> positions;  ///< body origin for each candidate, world
-  Eigen::Vector3d marker_centre = Eigen::Vector3d::Zero();  ///< world, metres
+  std::vector<double> yaws;                                  ///< body yaw for each candidate face, radians
+  std::vector<Eigen::Quaterniond> qs;                        ///< body orientation for each candidate (non-ground)
+  std::vector<Eigen::Vector3d> positions;                    ///< body origin for each candidate, world
+  Eigen::Vector3d marker_centre = Eigen::Vector3d::Zero();   ///< world, metres
   Eigen::Vector3d marker_normal = Eigen::Vector3d::UnitZ();  ///< world, from PnP
   double area_px = 0.0;
   std::int64_t t_mono_ns = 0, t_real_ns = 0;
@@ -88,7 +88,7 @@ struct BodyEstimatorOptions {
   /// Two poses that fit different faces: a face wins when its known heights make the corners a
   /// square this many times better than the other's.
   double shape_ratio = 0.5;
-  double shape_tolerance = 0.15;  ///< the chosen face's corners: RMS off the square < this x edge
+  double shape_tolerance = 0.15;   ///< the chosen face's corners: RMS off the square < this x edge
   double yaw_memory_s = 1.0;       ///< a body's last yaw tells its cube sides apart this long
   double side_tolerance = 0.5236;  ///< radians (30 deg): a side's yaw must lie this near the reference
   double baseline_min = 0.10;      ///< markers this far apart (m) give the yaw by their baseline

@@ -59,7 +59,7 @@ class BodyTrack {
     std::map<int, std::deque<Frame>> by_camera;  // time-ordered per camera
     std::int64_t newest_ns = 0;
     bool published = false;
-    FusedBody last;                              // the last published pose
+    FusedBody last;  // the last published pose
     struct Pose {
       std::int64_t t_ns = 0;
       Eigen::Vector3d position;

@@ -75,7 +75,7 @@ struct SheetLayout {
   double board_x_mm = 0, board_y_mm = 0;  ///< page position of the board's top-left corner
   double bar_x_mm = 0, bar_y_mm = 0;      ///< top-left of the check bar
   double bar_len_mm = 100.0, bar_h_mm = 3.0;
-  double text_y_mm = 0;                   ///< baseline of the spec text
+  double text_y_mm = 0;  ///< baseline of the spec text
 };
 SheetLayout sheet_layout(const BoardSpec& spec);
 

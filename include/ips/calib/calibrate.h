@@ -19,33 +19,33 @@ namespace ips::calib {
 
 struct CalibrationOptions {
   CameraModel::Kind kind = CameraModel::Kind::kFisheye;
-  bool thin_prism = false;       ///< pinhole: add the thin-prism terms s1..s4 (12 coefficients)
-  int min_views = 6;             ///< views with a usable board needed (after dropping outliers)
-  int min_corners = 8;           ///< corners a view needs to be used
+  bool thin_prism = false;  ///< pinhole: add the thin-prism terms s1..s4 (12 coefficients)
+  int min_views = 6;        ///< views with a usable board needed (after dropping outliers)
+  int min_corners = 8;      ///< corners a view needs to be used
   /// A view is an outlier when its median corner residual is above factor x the median of
   /// all views' median residuals, and above that median + floor (a single bad corner does
   /// not make a view an outlier; it is removed on its own, see below).
   double outlier_factor = 3.0;
   double outlier_floor_px = 0.4;
-  double corner_outlier_factor = 6.0;   ///< a corner is an outlier above factor x the RMS
-  double corner_outlier_floor_px = 0.75; ///< ... and above this
+  double corner_outlier_factor = 6.0;     ///< a corner is an outlier above factor x the RMS
+  double corner_outlier_floor_px = 0.75;  ///< ... and above this
   bool drop_outliers = true;
 };
 
 struct ViewResult {
   std::string name;
-  int corners = 0;         ///< corners found
-  int corners_dropped = 0; ///< of them, removed as outliers (far off the fit)
-  double rms = 0.0;       ///< per-view RMS reprojection error, pixels (of the final model)
-  bool used = false;      ///< false: dropped as an outlier (or unusable, see `why`)
-  std::string why;        ///< why it was not used
-  cv::Vec3d rvec, tvec;   ///< board pose (used views)
+  int corners = 0;                        ///< corners found
+  int corners_dropped = 0;                ///< of them, removed as outliers (far off the fit)
+  double rms = 0.0;                       ///< per-view RMS reprojection error, pixels (of the final model)
+  bool used = false;                      ///< false: dropped as an outlier (or unusable, see `why`)
+  std::string why;                        ///< why it was not used
+  cv::Vec3d rvec, tvec;                   ///< board pose (used views)
   std::vector<cv::Point2d> px, residual;  ///< observed corners and observed - projected
 };
 
 struct CalibrationResult {
   CameraModel model;
-  double rms = 0.0;        ///< over all corners of the used views, pixels
+  double rms = 0.0;  ///< over all corners of the used views, pixels
   int used_views = 0;
   std::vector<ViewResult> views;  ///< every input observation, in input order
   double coverage = 0.0;          ///< fraction of the coverage grid's cells holding a corner
@@ -65,9 +65,8 @@ CalibrationResult calibrate(const std::vector<BoardObservation>& observations, c
 
 /// Plain OpenCV on the same corners (every usable view, no outlier handling): the baseline
 /// a calibration must not be worse than.
-CameraModel calibrate_opencv_plain(const std::vector<BoardObservation>& observations,
-                                   const Board& board, CameraModel::Kind kind, int min_corners = 8,
-                                   bool thin_prism = false);
+CameraModel calibrate_opencv_plain(const std::vector<BoardObservation>& observations, const Board& board,
+                                   CameraModel::Kind kind, int min_corners = 8, bool thin_prism = false);
 
 /// Coverage grid used by the reports and the live mode: about 16 cells across, square cells.
 cv::Size coverage_grid(cv::Size image);
@@ -81,16 +80,14 @@ struct ModelDifference {
   cv::Point2d worst;  ///< pixel of the largest difference
 };
 ModelDifference compare_models(const CameraModel& truth, const CameraModel& estimate,
-                               const std::vector<cv::Point2d>& points, double radius_px = 25.0,
-                               int step = 8);
+                               const std::vector<cv::Point2d>& points, double radius_px = 25.0, int step = 8);
 
 /// A camera model in the ipsd intrinsics YAML form (what CameraModel::load reads).
 std::string model_yaml(const CameraModel& model);
 
 /// Writes the intrinsics in the ipsd YAML form (CameraModel::load reads it) with a
 /// `calibration:` block recording the board, image counts, RMS, coverage and date.
-std::string intrinsics_yaml(const CalibrationResult& result, const BoardSpec& board,
-                            const std::string& source);
+std::string intrinsics_yaml(const CalibrationResult& result, const BoardSpec& board, const std::string& source);
 
 /// The `--json` numbers.
 std::string result_json(const CalibrationResult& result, const BoardSpec& board);

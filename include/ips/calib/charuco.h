@@ -17,12 +17,12 @@ namespace ips::calib {
 
 /// The board's corners found in one image.
 struct BoardObservation {
-  std::string name;   ///< image file name (or "frame N" live)
+  std::string name;  ///< image file name (or "frame N" live)
   cv::Size image_size;
-  int markers = 0;                  ///< ArUco markers of the board found
-  std::vector<int> ids;             ///< ChArUco corner ids
-  std::vector<cv::Point2d> px;      ///< refined corner pixels, same order
-  std::vector<int> window;          ///< cornerSubPix half-window used per corner, pixels
+  int markers = 0;              ///< ArUco markers of the board found
+  std::vector<int> ids;         ///< ChArUco corner ids
+  std::vector<cv::Point2d> px;  ///< refined corner pixels, same order
+  std::vector<int> window;      ///< cornerSubPix half-window used per corner, pixels
 };
 
 /// Detects the board in an 8-bit greyscale image. Corners whose refinement window would be

@@ -14,11 +14,11 @@
 namespace ips::calib {
 
 struct LiveOptions {
-  int target_views = 30;        ///< stop after this many kept views
-  double still_px = 0.7;        ///< mean corner motion since the previous frame, pixels
+  int target_views = 30;             ///< stop after this many kept views
+  double still_px = 0.7;             ///< mean corner motion since the previous frame, pixels
   double min_corner_fraction = 0.3;  ///< of the board's corners
-  double sharp_fraction = 0.5;  ///< sharpness vs. the sharpest view of the board so far
-  int views_per_tilt = 3;       ///< wanted views per tilt direction
+  double sharp_fraction = 0.5;       ///< sharpness vs. the sharpest view of the board so far
+  int views_per_tilt = 3;            ///< wanted views per tilt direction
 };
 
 /// The board's tilt as seen in the image, from the homography board plane -> image.

@@ -18,9 +18,9 @@ const char* to_string(SourceKind kind);
 
 /// One camera. Blocks a source does not use are ignored by it (but still type-checked).
 struct CameraConfig {
-  int index = -1;            ///< position in `cameras` (= bit in the stream's camera mask)
-  std::string name;          ///< required; log prefix ("cam0: ...") and default model name
-  std::string model;         ///< camera name in the model file; default: `name`
+  int index = -1;                         ///< position in `cameras` (= bit in the stream's camera mask)
+  std::string name;                       ///< required; log prefix ("cam0: ...") and default model name
+  std::string model;                      ///< camera name in the model file; default: `name`
   SourceKind source = SourceKind::kV4l2;  ///< required: v4l2 | file | synthetic
   /// v4l2: cameras[].device, width, height, pixel_format, buffer_count, controls.*. Width and
   /// height are also the frame size file frames are checked against.
@@ -42,7 +42,7 @@ struct CameraConfig {
   double fps = V4L2Options{}.fps;
   std::filesystem::path intrinsics;  ///< camera intrinsics file (CameraModel::load); required except
                                      ///< for synthetic cameras (default: the scene camera's)
-  bool required = false;        ///< true: failing to open at start is fatal (exit 1)
+  bool required = false;             ///< true: failing to open at start is fatal (exit 1)
   /// Added to the source's timestamps so that they mean mid exposure, s (may be negative;
   /// docs/cameras.md says how to measure it).
   double timestamp_offset_s = 0.0;

@@ -19,7 +19,7 @@ struct Frame {
   /// When the source had the frame ready for the daemon, CLOCK_MONOTONIC (V4L2: dequeue; a
   /// synthetic camera: capture time + transport delay); 0 = the reader stamps it on return.
   std::int64_t t_delivered_ns = 0;
-  cv::Mat gray;                ///< CV_8UC1; detection needs nothing else
+  cv::Mat gray;  ///< CV_8UC1; detection needs nothing else
   /// Deferred decoding (FrameSource::defer_decode): when non-empty, this frame's image is
   /// this JPEG and `gray` is NOT it (only a buffer the reader may decode into, e.g. just the
   /// regions its tracker needs: ips::TrackedFrameDetector). Empty: `gray` is the image.

@@ -33,8 +33,7 @@ class SourceSupervisor {
   };
   static Clock system_clock();
 
-  SourceSupervisor(std::string name, SourceFactory factory, BackoffOptions backoff = {},
-                   Clock clock = system_clock());
+  SourceSupervisor(std::string name, SourceFactory factory, BackoffOptions backoff = {}, Clock clock = system_clock());
   ~SourceSupervisor();
 
   /// One open attempt now (start-up). Returns true if open; else the supervisor is in back-off

@@ -35,7 +35,7 @@ struct V4L2DeviceInfo {
   bool capture = false;  ///< a video capture node with streaming I/O (UVC metadata nodes are not)
   std::vector<V4L2FormatInfo> formats;
   std::vector<V4L2ControlInfo> controls;  ///< only those the device supports
-  std::vector<std::string> links;  ///< /dev/v4l/by-id and by-path symlinks resolving to `path`
+  std::vector<std::string> links;         ///< /dev/v4l/by-id and by-path symlinks resolving to `path`
 };
 
 /// Opens `path` read-only-ish (O_RDWR | O_NONBLOCK, no streaming) and asks what it offers.

@@ -55,8 +55,8 @@ bool parse_entry(std::string_view line, const EntryLimits& limits, Entry& out, s
 /// [0] left of the line a -> b (looking from a towards b), [1] right of it. Distances that
 /// miss each other by up to `slack` (tape noise) are taken as touching; beyond that, throws
 /// ips::InputError saying why.
-std::array<Eigen::Vector2d, 2> from_two_distances(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
-                                                  double d_a, double d_b, double slack = 0.01);
+std::array<Eigen::Vector2d, 2> from_two_distances(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double d_a,
+                                                  double d_b, double slack = 0.01);
 
 // ---- Steadiness of one camera's view over the frames of a placement ------------------------
 
@@ -76,8 +76,7 @@ struct CameraVerdict {
 
 /// Judges one camera's samples (camera coordinates of the marker, one per frame it was
 /// located in) out of `frames` frames.
-CameraVerdict judge(const std::vector<Eigen::Vector3d>& samples, int frames,
-                    const SteadyOptions& options);
+CameraVerdict judge(const std::vector<Eigen::Vector3d>& samples, int frames, const SteadyOptions& options);
 
 /// A list of world positions prepared in advance (CSV with columns xw,yw,zw in metres, any
 /// others ignored). Throws ips::InputError naming `name`:line.
@@ -121,8 +120,7 @@ class PairsFile {
 /// position; the candidate nearer their mean prediction wins. Returns 0 (left), 1 (right) or
 /// -1 if no camera can tell yet; `how` says which side, who told and how far the candidates
 /// were from the prediction.
-int side_from_cameras(const PairsFile& pairs,
-                      const std::vector<std::pair<std::string, Eigen::Vector3d>>& seen,
+int side_from_cameras(const PairsFile& pairs, const std::vector<std::pair<std::string, Eigen::Vector3d>>& seen,
                       const std::array<Eigen::Vector2d, 2>& candidates, std::string& how);
 
 }  // namespace ips::collect

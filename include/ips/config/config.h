@@ -52,14 +52,13 @@ struct DaemonConfig {
 /// What loading checks beyond the format. `ips calibrate --config` loads a lab's config before
 /// a camera's intrinsics file and the model file exist (calibration comes first).
 struct ConfigChecks {
-  bool intrinsics_exist = true;  ///< cameras[].intrinsics must name an existing file
-  bool model_file_exists = true; ///< model_file must name an existing file
+  bool intrinsics_exist = true;   ///< cameras[].intrinsics must name an existing file
+  bool model_file_exists = true;  ///< model_file must name an existing file
 };
 
 /// Parses and validates `path` (relative paths inside are resolved against its directory).
 DaemonConfig load_config(const std::filesystem::path& path, ConfigChecks checks = {});
-DaemonConfig parse_config(const std::string& yaml_text, const std::filesystem::path& path,
-                          ConfigChecks checks = {});
+DaemonConfig parse_config(const std::string& yaml_text, const std::filesystem::path& path, ConfigChecks checks = {});
 
 /// Cross-checks the configuration against a loaded model file: every camera's model exists;
 /// if a camera's mapper needs the marker height, markers.height or every listed id must give one

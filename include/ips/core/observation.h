@@ -29,22 +29,22 @@ struct MarkerDetection {
 struct CameraObservation {
   int id = -1;
   Eigen::Vector3d p_cam = Eigen::Vector3d::Zero();  ///< (xc, yc, zc), metres
-  double yaw = 0.0;            ///< marker x-axis heading in the camera x-y plane, radians
-  double area_px = 0.0;        ///< marker area in the image, px^2 (shoelace formula)
-  double edge_length = 0.0;    ///< marker edge length L used for the depth, metres
-  std::array<Point2, 4> corners_px{};    ///< raw corners, pixels
-  std::array<Point2, 4> corners_norm{};  ///< undistorted corners, normalised (u, v)
+  double yaw = 0.0;                                 ///< marker x-axis heading in the camera x-y plane, radians
+  double area_px = 0.0;                             ///< marker area in the image, px^2 (shoelace formula)
+  double edge_length = 0.0;                         ///< marker edge length L used for the depth, metres
+  std::array<Point2, 4> corners_px{};               ///< raw corners, pixels
+  std::array<Point2, 4> corners_norm{};             ///< undistorted corners, normalised (u, v)
 };
 
 /// A marker in world coordinates as seen by one camera.
 struct WorldObservation {
   int id = -1;
-  int camera_index = -1;       ///< index of the camera in the daemon's configuration
+  int camera_index = -1;                              ///< index of the camera in the daemon's configuration
   Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< metres
-  double yaw = 0.0;            ///< heading in the world x-y plane, radians
-  double area_px = 0.0;        ///< pixel area, for fusion weights
-  std::int64_t t_mono_ns = 0;  ///< capture time, CLOCK_MONOTONIC
-  std::int64_t t_real_ns = 0;  ///< capture time, CLOCK_REALTIME
+  double yaw = 0.0;                                   ///< heading in the world x-y plane, radians
+  double area_px = 0.0;                               ///< pixel area, for fusion weights
+  std::int64_t t_mono_ns = 0;                         ///< capture time, CLOCK_MONOTONIC
+  std::int64_t t_real_ns = 0;                         ///< capture time, CLOCK_REALTIME
   /// False when the marker's height is unknown: p_world is then the depth-formula point on the
   /// camera ray (cm-level in z), and the ray below lets fusion triangulate with other cameras.
   bool height_known = true;

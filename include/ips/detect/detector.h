@@ -21,8 +21,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "ips/geometry/camera_model.h"
 #include "ips/core/observation.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips {
 
@@ -116,8 +116,7 @@ class Detector {
   /// full-image coordinates, and the detection scale and marker-size limits are those of
   /// the full image (plan_detection(options, gray.size())), so a marker found in an ROI has
   /// the corners a full-frame search would give it. `roi` is clipped to the image.
-  std::vector<MarkerDetection> detect(const cv::Mat& gray, const cv::Rect& roi,
-                                      const CameraModel* camera = nullptr);
+  std::vector<MarkerDetection> detect(const cv::Mat& gray, const cv::Rect& roi, const CameraModel* camera = nullptr);
 
   /// Tracking's shortcut for a marker known from the previous frame (DetectionTracker): no
   /// candidate search; `predicted` (its id and corners in ArUco order, predicted for this
@@ -145,8 +144,8 @@ inline constexpr double kMinCoarseMarkerPx = 12.0;
 
 /// What detect() does on an image of a given size.
 struct DetectionPlan {
-  double min_marker_px = 0;     ///< smallest marker side searched, full-resolution px
-  int scale = 1;                ///< candidate-search scale factor
+  double min_marker_px = 0;           ///< smallest marker side searched, full-resolution px
+  int scale = 1;                      ///< candidate-search scale factor
   bool full_resolution_pass = false;  ///< markers below kMinCoarseMarkerPx x scale searched at 1
 };
 DetectionPlan plan_detection(const DetectorOptions& options, cv::Size image);

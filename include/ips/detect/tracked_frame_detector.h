@@ -13,12 +13,12 @@
 #include <string>
 #include <vector>
 
-#include "ips/geometry/camera_model.h"
-#include "ips/detect/detector.h"
 #include "ips/capture/frame_source.h"
 #include "ips/capture/jpeg_region_decoder.h"
 #include "ips/core/observation.h"
+#include "ips/detect/detector.h"
 #include "ips/detect/tracker.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips {
 

@@ -27,9 +27,9 @@
 
 #include <opencv2/core.hpp>
 
-#include "ips/geometry/camera_model.h"
-#include "ips/detect/detector.h"
 #include "ips/core/observation.h"
+#include "ips/detect/detector.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips {
 
@@ -67,12 +67,11 @@ class DetectionTracker {
   /// valid: a partial JPEG decode is enough). Returns false, without detections and without
   /// changing the tracks, when a tracked marker was not found in its ROI: the caller then runs
   /// the same frame again with a full plan (TrackPlan{}) on the whole image.
-  bool detect(Detector& detector, const cv::Mat& gray, const TrackPlan& plan,
-              const CameraModel* camera, std::vector<MarkerDetection>& out);
+  bool detect(Detector& detector, const cv::Mat& gray, const TrackPlan& plan, const CameraModel* camera,
+              std::vector<MarkerDetection>& out);
 
   /// plan() + detect() + the fallback, for a fully decoded frame.
-  std::vector<MarkerDetection> track(Detector& detector, const cv::Mat& gray,
-                                     const CameraModel* camera);
+  std::vector<MarkerDetection> track(Detector& detector, const cv::Mat& gray, const CameraModel* camera);
 
   /// Forgets every track (e.g. the source was reopened); the next frame is a full search.
   void reset();
@@ -95,7 +94,7 @@ class DetectionTracker {
     std::int64_t frame = 0;  ///< frame index of the last sighting
   };
   void update(const std::vector<MarkerDetection>& found, bool full);
-  MarkerDetection predicted(const Track& t) const;  ///< its corners in the next frame
+  MarkerDetection predicted(const Track& t) const;        ///< its corners in the next frame
   cv::Rect roi_of(const Track& t, cv::Size image) const;  ///< where to search for it
   double reach(const Track& t) const;
 

@@ -40,10 +40,10 @@ struct FixedMarkerReading {
 class FixedMarkerMonitor {
  public:
   struct Options {
-    double warn_m = 0.03;       ///< fusion.fixed_marker_warn
-    double window_s = 1.0;      ///< the median covers this much of each pair's recent observations
+    double warn_m = 0.03;         ///< fusion.fixed_marker_warn
+    double window_s = 1.0;        ///< the median covers this much of each pair's recent observations
     std::size_t min_samples = 3;  ///< no verdict on fewer observations (one bad frame is no bump)
-    double back_ratio = 0.8;    ///< "back" below back_ratio * warn_m: no flapping at the threshold
+    double back_ratio = 0.8;      ///< "back" below back_ratio * warn_m: no flapping at the threshold
   };
 
   /// `fixed`: surveyed world position by marker id.

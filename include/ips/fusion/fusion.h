@@ -10,8 +10,8 @@
 
 #include <Eigen/Core>
 
-#include "ips/mapping/mapper.h"
 #include "ips/core/observation.h"
+#include "ips/mapping/mapper.h"
 
 namespace ips {
 
@@ -35,13 +35,13 @@ struct FusionTimeWindows {
 struct FusedMarker {
   int id = -1;
   Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< metres
-  double yaw = 0.0;               ///< world heading, radians in (-pi, pi]
-  std::uint32_t camera_mask = 0;  ///< bit i = camera index i contributed
-  double quality = 0.0;           ///< sum of contributing pixel areas, px^2
-  double spread = 0.0;            ///< max distance of a contributing estimate from p_world, m
-  std::int64_t t_mono_ns = 0;     ///< weighted mean capture time of the contributions
+  double yaw = 0.0;                                   ///< world heading, radians in (-pi, pi]
+  std::uint32_t camera_mask = 0;                      ///< bit i = camera index i contributed
+  double quality = 0.0;                               ///< sum of contributing pixel areas, px^2
+  double spread = 0.0;                                ///< max distance of a contributing estimate from p_world, m
+  std::int64_t t_mono_ns = 0;                         ///< weighted mean capture time of the contributions
   std::int64_t t_real_ns = 0;
-  bool has_velocity = false;      ///< velocity is an estimate (Kalman, or the cameras' own motion)
+  bool has_velocity = false;                           ///< velocity is an estimate (Kalman, or the cameras' own motion)
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s
   /// Position covariance, m^2: the Kalman filter's when it runs; otherwise the scatter of the
   /// cameras' estimates plus one measurement variance, both divided by the number of cameras.

@@ -38,7 +38,7 @@ struct TrackFusionOptions : FusionTimeWindows {
   /// An object without a known height seen by one camera: publish the depth-formula position
   /// (true) or nothing (false). With >= 2 cameras' rays it is triangulated either way.
   bool single_camera_depth = false;
-  bool kalman = false;          ///< constant-velocity Kalman filter per object on the output
+  bool kalman = false;  ///< constant-velocity Kalman filter per object on the output
   KalmanOptions kalman_options;
 
   bool operator==(const TrackFusionOptions&) const = default;
@@ -67,8 +67,8 @@ class TrackFusion {
   }
 
   /// Fused state of every object seen within history_s before `t_mono_ns`, predicted to that
-  /// time (fixed-rate output; the wider window covers the capture latency), sorted by id. Objects whose last published time is later are
-  /// left out; the published time of the others becomes t_mono_ns. `t_real_ns` is stamped.
+  /// time (fixed-rate output; the wider window covers the capture latency), sorted by id. Objects whose last published
+  /// time is later are left out; the published time of the others becomes t_mono_ns. `t_real_ns` is stamped.
   void predict_all(std::int64_t t_mono_ns, std::int64_t t_real_ns, const FusionMethod& method,
                    std::vector<FusedMarker>& out);
 

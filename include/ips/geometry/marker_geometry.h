@@ -3,8 +3,8 @@
 
 #include <map>
 
-#include "ips/geometry/camera_model.h"
 #include "ips/core/observation.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips {
 
@@ -22,8 +22,7 @@ struct MarkerSizes {
 /// xc = zc * mean(u), yc = zc * mean(v); also yaw, pixel area and the corners.
 /// yaw = atan2 of the marker x-axis (mid-left edge -> mid-right edge, i.e. corners
 /// 0,3 -> 1,2) in normalised coordinates: the heading in the camera's x-y plane.
-CameraObservation locate_marker(const MarkerDetection& detection, const CameraModel& camera,
-                                double edge_length);
+CameraObservation locate_marker(const MarkerDetection& detection, const CameraModel& camera, double edge_length);
 
 /// The same formula on an observation whose corners_norm, corners_px and edge_length are
 /// already set (the simulator's exact ground truth uses this on exactly projected corners).

@@ -14,9 +14,9 @@ namespace ips {
 
 /// Per-marker settings (markers.ids.<id>).
 struct MarkerInfo {
-  std::string name;                              ///< optional, shown by `ips listen`
-  double edge_length = std::nan("");             ///< metres; NaN = markers.edge_length
-  double height = std::nan("");                  ///< known world z, metres; NaN = markers.height
+  std::string name;                   ///< optional, shown by `ips listen`
+  double edge_length = std::nan("");  ///< metres; NaN = markers.edge_length
+  double height = std::nan("");       ///< known world z, metres; NaN = markers.height
   /// A marker that stays put (a reference left on the floor): its surveyed world position,
   /// metres. ipsd checks every camera's view of it (docs/survey.md, a bumped camera).
   std::optional<std::array<double, 3>> fixed;

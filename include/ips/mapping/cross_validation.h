@@ -23,17 +23,15 @@ std::vector<int> fold_assignment(std::size_t n, int folds);
 /// Throws ips::InputError if a training fold is too small for the method.
 std::vector<Eigen::Vector3d> cross_validated_predictions(const std::string& method,
                                                          std::span<const Eigen::Vector3d> cam,
-                                                         std::span<const Eigen::Vector3d> world,
-                                                         int folds, const FitOptions& options);
+                                                         std::span<const Eigen::Vector3d> world, int folds,
+                                                         const FitOptions& options);
 
 /// Error statistics of cross_validated_predictions().
 CameraErrors cross_validate(const std::string& method, std::span<const Eigen::Vector3d> cam,
-                            std::span<const Eigen::Vector3d> world, int folds,
-                            const FitOptions& options);
+                            std::span<const Eigen::Vector3d> world, int folds, const FitOptions& options);
 
 /// Predicts every point with a fitted mapper, the row's world z as the known height.
-std::vector<Eigen::Vector3d> predict_points(const Mapper& mapper,
-                                            std::span<const Eigen::Vector3d> cam,
+std::vector<Eigen::Vector3d> predict_points(const Mapper& mapper, std::span<const Eigen::Vector3d> cam,
                                             std::span<const Eigen::Vector3d> world);
 
 }  // namespace ips

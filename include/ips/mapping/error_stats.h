@@ -28,8 +28,7 @@ struct CameraErrors {
 ErrorStats summarize_errors(std::span<const double> errors);
 
 /// Compares predictions with the truth, point by point (same length, not empty).
-CameraErrors compare_points(std::span<const Eigen::Vector3d> predicted,
-                            std::span<const Eigen::Vector3d> truth);
+CameraErrors compare_points(std::span<const Eigen::Vector3d> predicted, std::span<const Eigen::Vector3d> truth);
 
 /// {"n": N, "err3d": {"mean","min","max","std"}, "err2d": {...}} in metres
 /// (std is null when N < 2).

@@ -21,9 +21,9 @@ enum class ErrorMetric {
 };
 
 struct FitOptions {
-  std::uint64_t seed = 1;              ///< makes stochastic fits (ann restarts) deterministic
+  std::uint64_t seed = 1;                 ///< makes stochastic fits (ann restarts) deterministic
   ErrorMetric metric = ErrorMetric::k3d;  ///< for `auto`
-  int folds = 10;                      ///< k for the cross-validation `auto` runs
+  int folds = 10;                         ///< k for the cross-validation `auto` runs
   /// For `auto`: will the daemon know each marker's height (markers.height or per-ID
   /// heights in its config, the normal case)? Then `plane` competes, scored by its true
   /// error (its z is the known height); otherwise it cannot be used and does not compete.
@@ -52,8 +52,7 @@ class Mapper {
 
   /// Predicts the world position. `known_height` is the marker's world z if known
   /// (kNoHeight otherwise); only mappers whose needs_height() is true use it.
-  virtual Eigen::Vector3d predict(const Eigen::Vector3d& cam,
-                                  double known_height = kNoHeight) const = 0;
+  virtual Eigen::Vector3d predict(const Eigen::Vector3d& cam, double known_height = kNoHeight) const = 0;
 
   /// True for mappers that need the marker height (the `plane` mapper).
   virtual bool needs_height() const { return false; }

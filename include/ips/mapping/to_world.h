@@ -12,9 +12,8 @@ namespace ips {
 /// maps a second point, `heading_step` metres along the marker's x-axis in the camera frame
 /// (direction (cos yaw, sin yaw, 0)), through the same mapper and takes atan2 of the world
 /// difference: correct for every mapper, including non-rigid ones.
-WorldObservation to_world(const CameraObservation& obs, const Mapper& mapper, double known_height,
-                          int camera_index, std::int64_t t_mono_ns, std::int64_t t_real_ns,
-                          double heading_step = 0.05);
+WorldObservation to_world(const CameraObservation& obs, const Mapper& mapper, double known_height, int camera_index,
+                          std::int64_t t_mono_ns, std::int64_t t_real_ns, double heading_step = 0.05);
 
 enum class MappedMarker {
   kMapped,      ///< `out` holds the world observation

@@ -14,11 +14,11 @@ namespace ips {
 
 /// One vehicle of a MAVLink output (outputs[i].vehicles[j]): the marker it carries.
 struct MavlinkVehicle {
-  int marker = -1;           ///< required: ArUco id of the marker on the vehicle
-  int system_id = 0;         ///< required: the vehicle's MAVLink system id, 1..255
-  std::string address;       ///< destination host; "" = the output's address
-  std::uint16_t port = 0;    ///< destination port; 0 = the output's port
-  double marker_yaw_deg = 0; ///< heading of the marker's x axis relative to the vehicle's nose, degrees (CCW)
+  int marker = -1;            ///< required: ArUco id of the marker on the vehicle
+  int system_id = 0;          ///< required: the vehicle's MAVLink system id, 1..255
+  std::string address;        ///< destination host; "" = the output's address
+  std::uint16_t port = 0;     ///< destination port; 0 = the output's port
+  double marker_yaw_deg = 0;  ///< heading of the marker's x axis relative to the vehicle's nose, degrees (CCW)
 
   bool operator==(const MavlinkVehicle&) const = default;
 };
@@ -41,9 +41,9 @@ struct MavlinkOutputSettings {
 /// type: subscriptions (src/output/subscription_sink.cpp; protocol in include/ips/output/wire.h).
 struct SubscriptionSettings {
   std::vector<std::string> allow = {"0.0.0.0/0"};  ///< IPv4 subnets (CIDR) that may subscribe
-  std::string psk;              ///< pre-shared key for HMAC-SHA256 over requests; "" = none
-  int max_subscribers = 16;     ///< verified subscribers at once
-  double max_lease_s = 60.0;    ///< a longer requested lease is shortened to this
+  std::string psk;                                 ///< pre-shared key for HMAC-SHA256 over requests; "" = none
+  int max_subscribers = 16;                        ///< verified subscribers at once
+  double max_lease_s = 60.0;                       ///< a longer requested lease is shortened to this
 
   bool operator==(const SubscriptionSettings&) const = default;
 };
@@ -69,16 +69,16 @@ struct Ros2OutputSettings {
 
 struct OutputConfig {
   enum class Kind { kUnicast, kBroadcast, kMulticast, kMavlink, kSubscriptions, kRos2 };
-  Kind kind = Kind::kUnicast;       ///< required: unicast | broadcast | multicast | mavlink | subscriptions | ros2
-  std::string address;              ///< required: IPv4 host / broadcast address / multicast group
-  std::uint16_t port = 0;           ///< required: UDP port
+  Kind kind = Kind::kUnicast;  ///< required: unicast | broadcast | multicast | mavlink | subscriptions | ros2
+  std::string address;         ///< required: IPv4 host / broadcast address / multicast group
+  std::uint16_t port = 0;      ///< required: UDP port
   WireFormat format = WireFormat::kBinary;  ///< binary | json
-  int ttl = 1;                      ///< multicast TTL (1 = this subnet only)
-  std::string interface;            ///< multicast: IPv4 address of the sending interface; "" = default route
-  MavlinkOutputSettings mavlink;    ///< type mavlink (address/port: the default destination)
-  SubscriptionSettings subscriptions;  ///< type subscriptions (address/port: where to listen)
-  Ros2OutputSettings ros2;          ///< type ros2 only
-  std::string describe() const;     ///< "multicast 239.1.2.3:5005 (json)"
+  int ttl = 1;                              ///< multicast TTL (1 = this subnet only)
+  std::string interface;                    ///< multicast: IPv4 address of the sending interface; "" = default route
+  MavlinkOutputSettings mavlink;            ///< type mavlink (address/port: the default destination)
+  SubscriptionSettings subscriptions;       ///< type subscriptions (address/port: where to listen)
+  Ros2OutputSettings ros2;                  ///< type ros2 only
+  std::string describe() const;             ///< "multicast 239.1.2.3:5005 (json)"
 
   bool operator==(const OutputConfig&) const = default;
 };

@@ -18,8 +18,8 @@ namespace ips {
 inline constexpr std::int64_t kSendErrorLogIntervalNs = 10'000'000'000;
 
 struct OutputStats {
-  std::string description;        ///< "unicast 127.0.0.1:5005 (binary)"
-  std::uint64_t datagrams = 0;    ///< sent successfully (datagrams, frames or samples)
+  std::string description;      ///< "unicast 127.0.0.1:5005 (binary)"
+  std::uint64_t datagrams = 0;  ///< sent successfully (datagrams, frames or samples)
   std::uint64_t bytes = 0;
   std::uint64_t send_errors = 0;  ///< failed sends (EAGAIN, unreachable, ...): data lost
   /// Type-specific counters shown by the status, in order ({"subscribers", 2}, {"refused_subnet", 5}, ...).

@@ -33,21 +33,21 @@ struct MarkerRecord {
 
 /// One rigid body of a fused update (version 2 only; docs/bodies.md). Units SI.
 struct BodyRecord {
-  std::string name;               ///< at most IPS_WIRE_BODY_NAME_SIZE - 1 bytes on the wire
-  std::uint32_t camera_mask = 0;  ///< bit i = camera i (configuration order) contributed
-  double x = 0, y = 0, z = 0;     ///< body origin, world, metres
-  double yaw = 0;                 ///< heading of the body x axis, radians
+  std::string name;                       ///< at most IPS_WIRE_BODY_NAME_SIZE - 1 bytes on the wire
+  std::uint32_t camera_mask = 0;          ///< bit i = camera i (configuration order) contributed
+  double x = 0, y = 0, z = 0;             ///< body origin, world, metres
+  double yaw = 0;                         ///< heading of the body x axis, radians
   double qw = 1, qx = 0, qy = 0, qz = 0;  ///< orientation body -> world
-  double quality = 0;             ///< sum of contributing marker areas, px^2
-  double spread = 0;              ///< max distance of a view's body position from the fused one, m
-  std::int32_t dt_us = 0;         ///< body time - header capture time, microseconds
-  bool has_yaw = false;           ///< yaw/quaternion measured (false: position only)
-  std::uint16_t id_count = 0;     ///< distinct marker ids that contributed
-  std::vector<std::uint32_t> ids; ///< the first min(id_count, IPS_WIRE_BODY_MAX_IDS), ascending
-  bool has_velocity = false;      ///< vx, vy, vz measured (from the body's published positions)
-  double vx = 0, vy = 0, vz = 0;  ///< world, m/s
-  bool has_yaw_rate = false;      ///< yaw_rate measured
-  double yaw_rate = 0;            ///< rad/s about world z
+  double quality = 0;                     ///< sum of contributing marker areas, px^2
+  double spread = 0;                      ///< max distance of a view's body position from the fused one, m
+  std::int32_t dt_us = 0;                 ///< body time - header capture time, microseconds
+  bool has_yaw = false;                   ///< yaw/quaternion measured (false: position only)
+  std::uint16_t id_count = 0;             ///< distinct marker ids that contributed
+  std::vector<std::uint32_t> ids;         ///< the first min(id_count, IPS_WIRE_BODY_MAX_IDS), ascending
+  bool has_velocity = false;              ///< vx, vy, vz measured (from the body's published positions)
+  double vx = 0, vy = 0, vz = 0;          ///< world, m/s
+  bool has_yaw_rate = false;              ///< yaw_rate measured
+  double yaw_rate = 0;                    ///< rad/s about world z
 };
 
 /// One datagram's content (either format). Version 1: markers only; version 2: markers and

@@ -30,10 +30,10 @@ enum class Status : std::uint8_t {
 struct Request {
   Op op = Op::kSubscribe;
   WireFormat format = WireFormat::kBinary;
-  bool all = true;                   ///< every marker (ids ignored)
+  bool all = true;  ///< every marker (ids ignored)
   std::uint16_t lease_s = 30;
-  std::vector<std::uint32_t> ids;    ///< wanted marker ids when !all
-  Cookie cookie{};                   ///< zeros = none yet
+  std::vector<std::uint32_t> ids;  ///< wanted marker ids when !all
+  Cookie cookie{};                 ///< zeros = none yet
 };
 
 struct Reply {

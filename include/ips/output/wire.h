@@ -152,8 +152,8 @@ extern "C" {
 
 /* Version 2: the body section and its records. */
 #define IPS_WIRE_BODY_SECTION_SIZE 4u
-#define IPS_WIRE_BODY_RECORD_SIZE 116u    /* what ipsd sends */
-#define IPS_WIRE_BODY_RECORD_MIN 100u     /* the smallest a receiver accepts (no velocity) */
+#define IPS_WIRE_BODY_RECORD_SIZE 116u /* what ipsd sends */
+#define IPS_WIRE_BODY_RECORD_MIN 100u  /* the smallest a receiver accepts (no velocity) */
 #define IPS_WIRE_BODY_NAME_SIZE 32u
 #define IPS_WIRE_BODY_MAX_IDS 4u
 #define IPS_WIRE_BODY_HAS_YAW 0x0001u
@@ -271,12 +271,12 @@ struct ips_wire_marker {
 
 enum ips_wire_status {
   IPS_WIRE_OK = 0,
-  IPS_WIRE_TOO_SHORT = -1,      /* shorter than a header */
-  IPS_WIRE_BAD_MAGIC = -2,      /* not an ipsd binary datagram */
-  IPS_WIRE_BAD_VERSION = -3,    /* a protocol version this header does not describe */
-  IPS_WIRE_BAD_RECORD_SIZE = -4,/* record_size smaller than the fields the flags announce */
-  IPS_WIRE_BAD_LENGTH = -5,     /* length != header + marker_count * record_size */
-  IPS_WIRE_BAD_PARTS = -6,      /* parts == 0 or part >= parts */
+  IPS_WIRE_TOO_SHORT = -1,           /* shorter than a header */
+  IPS_WIRE_BAD_MAGIC = -2,           /* not an ipsd binary datagram */
+  IPS_WIRE_BAD_VERSION = -3,         /* a protocol version this header does not describe */
+  IPS_WIRE_BAD_RECORD_SIZE = -4,     /* record_size smaller than the fields the flags announce */
+  IPS_WIRE_BAD_LENGTH = -5,          /* length != header + marker_count * record_size */
+  IPS_WIRE_BAD_PARTS = -6,           /* parts == 0 or part >= parts */
   IPS_WIRE_BAD_BODY_RECORD_SIZE = -7 /* version 2: body_record_size smaller than a body record */
 };
 
@@ -339,8 +339,8 @@ static inline int ips_wire_read_header(const uint8_t* buf, size_t len, struct ip
 }
 
 /* Decodes record `index` (< h->marker_count) of a datagram validated by ips_wire_read_header. */
-static inline void ips_wire_read_marker(const uint8_t* buf, const struct ips_wire_header* h,
-                                        uint16_t index, struct ips_wire_marker* m) {
+static inline void ips_wire_read_marker(const uint8_t* buf, const struct ips_wire_header* h, uint16_t index,
+                                        struct ips_wire_marker* m) {
   const uint8_t* r = buf + IPS_WIRE_HEADER_SIZE + (size_t)index * h->record_size;
   m->id = ips_wire_get_u32(r + IPS_WIRE_REC_ID);
   m->camera_mask = ips_wire_get_u32(r + IPS_WIRE_REC_CAMERA_MASK);

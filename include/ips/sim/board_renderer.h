@@ -44,8 +44,7 @@ class BoardRenderer {
 
   /// Renders the board over the camera's floor into `gray` (CV_8UC1, reused), then blur,
   /// then the scene's sensor noise (JPEG is the caller's: encode_jpeg).
-  void render(const BoardPose& pose, const BoardLook& look, cv::Mat& gray,
-              std::uint64_t noise_index) const;
+  void render(const BoardPose& pose, const BoardLook& look, cv::Mat& gray, std::uint64_t noise_index) const;
   BoardTruth truth(const BoardPose& pose) const;
 
   const CameraRenderer& camera() const { return camera_; }
@@ -61,10 +60,10 @@ class BoardRenderer {
 struct BoardViewOptions {
   int views = 30;
   double tilt_min_deg = 10.0, tilt_max_deg = 50.0;  ///< board normal vs. the line of sight
-  double size_min = 0.30, size_max = 0.55;  ///< board width / image width, on the optical axis
-  double min_visible = 0.85;                ///< fraction of the corners that must be visible
-  double max_blur = 0.6;                    ///< defocus sigma drawn from [0, this], pixels
-  double max_gradient = 0.3;                ///< lighting gradient drawn from [0, this]
+  double size_min = 0.30, size_max = 0.55;          ///< board width / image width, on the optical axis
+  double min_visible = 0.85;                        ///< fraction of the corners that must be visible
+  double max_blur = 0.6;                            ///< defocus sigma drawn from [0, this], pixels
+  double max_gradient = 0.3;                        ///< lighting gradient drawn from [0, this]
   unsigned seed = 1;
 };
 
@@ -82,7 +81,6 @@ struct BoardView {
 /// width, faces it to the camera, rolls it by +-45 deg and tilts it by 10-50 deg about a
 /// random in-plane axis. A pose is kept if >= 85 % of the corners are visible and the board
 /// is not seen edge-on (< 70 deg); otherwise it is redrawn, moving towards the image centre.
-std::vector<BoardView> generate_board_views(const BoardRenderer& renderer,
-                                            const BoardViewOptions& options);
+std::vector<BoardView> generate_board_views(const BoardRenderer& renderer, const BoardViewOptions& options);
 
 }  // namespace ips::sim

@@ -26,12 +26,11 @@ namespace ips::sim {
 /// Exact truth for one marker in one camera at one instant.
 struct MarkerTruth {
   int id = -1;
-  MarkerPose pose;       ///< world pose
-  bool visible = false;  ///< all 4 corners in front of the camera and >= 3 px inside the image
-  std::array<Point2, 4>
-      corners_px{};           ///< exact projection of the black square's corners (ArUco order)
-  CameraObservation formula;  ///< the depth formula applied to the exact corners: what a
-                              ///< perfect detector would report (true xc, yc, zc, yaw)
+  MarkerPose pose;                     ///< world pose
+  bool visible = false;                ///< all 4 corners in front of the camera and >= 3 px inside the image
+  std::array<Point2, 4> corners_px{};  ///< exact projection of the black square's corners (ArUco order)
+  CameraObservation formula;           ///< the depth formula applied to the exact corners: what a
+                                       ///< perfect detector would report (true xc, yc, zc, yaw)
   Eigen::Vector3d centre_cam = Eigen::Vector3d::Zero();  ///< geometric marker centre, camera frame
 };
 
@@ -53,8 +52,7 @@ class CameraRenderer {
   void render(double t, cv::Mat& gray, std::uint64_t noise_index) const;
 
   /// Renders an explicit set of markers (used by `ips sim collect`).
-  void render_markers(const std::vector<PlacedMarker>& markers, cv::Mat& gray,
-                      std::uint64_t noise_index) const;
+  void render_markers(const std::vector<PlacedMarker>& markers, cv::Mat& gray, std::uint64_t noise_index) const;
 
   /// Truth of every scene marker at time t.
   std::vector<MarkerTruth> truth(double t) const;
@@ -81,10 +79,9 @@ class CameraRenderer {
   const Scene& scene_;
   std::size_t camera_index_;
   int width_ = 0, height_ = 0;
-  std::shared_ptr<const cv::Mat>
-      uv_;              ///< CV_32FC2: normalised coords of each pixel centre (NaN: no ray)
-  cv::Mat gain_;        ///< CV_32F: vignetting x lighting gradient at each pixel
-  cv::Mat background_;  ///< CV_8U: the floor without markers or noise
+  std::shared_ptr<const cv::Mat> uv_;  ///< CV_32FC2: normalised coords of each pixel centre (NaN: no ray)
+  cv::Mat gain_;                       ///< CV_32F: vignetting x lighting gradient at each pixel
+  cv::Mat background_;                 ///< CV_8U: the floor without markers or noise
   std::shared_ptr<const std::vector<std::int8_t>> noise_;  ///< Gaussian noise pool, grey levels
   std::vector<cv::Mat> patterns_;  ///< per scene marker: bits+2 cells square, 0 = black, 1 = white
 };

@@ -37,14 +37,13 @@ struct MarkerPose {
 struct Trajectory {
   enum class Kind { kStatic, kCircle, kLine, kWaypoints, kPlacements };
   Kind kind = Kind::kStatic;
-  double speed = 0.0;            ///< m/s along the path
-  Eigen::Vector2d center{0, 0};  ///< circle centre, metres
-  double radius = 0.0;           ///< circle radius, metres
-  bool clockwise = false;        ///< circle direction seen from above
-  double start_angle = 0.0;      ///< circle: where on it at t = 0, radians from +x (centre + radius (cos, sin))
-  std::vector<Eigen::Vector2d>
-      points;                        ///< line: {from, to} (back and forth); waypoints: closed loop
-  bool heading_follows_path = true;  ///< yaw = direction of travel (+ yaw offset) else fixed yaw
+  double speed = 0.0;                   ///< m/s along the path
+  Eigen::Vector2d center{0, 0};         ///< circle centre, metres
+  double radius = 0.0;                  ///< circle radius, metres
+  bool clockwise = false;               ///< circle direction seen from above
+  double start_angle = 0.0;             ///< circle: where on it at t = 0, radians from +x (centre + radius (cos, sin))
+  std::vector<Eigen::Vector2d> points;  ///< line: {from, to} (back and forth); waypoints: closed loop
+  bool heading_follows_path = true;     ///< yaw = direction of travel (+ yaw offset) else fixed yaw
   double pause = 0.0;  ///< waypoints: the marker stops this long at each waypoint, seconds (a wand held still)
   /// placements: the marker is put down by hand at one of these poses at a time, the one whose
   /// 0-based index the `control` file holds (read at every pose query, so whoever plays the
@@ -57,11 +56,10 @@ struct Trajectory {
 struct SceneMarker {
   int id = 0;
   double length = 0.20;  ///< black-square edge length L, metres
-  double margin =
-      -1.0;          ///< white border around the black square, metres (<0: one cell, L/(bits+2))
-  MarkerPose start;  ///< pose at t = 0 for static markers; height and yaw offset for moving ones
+  double margin = -1.0;  ///< white border around the black square, metres (<0: one cell, L/(bits+2))
+  MarkerPose start;      ///< pose at t = 0 for static markers; height and yaw offset for moving ones
   Trajectory trajectory;
-  int body = -1;     ///< index into Scene::bodies of the body carrying it (its pose follows the body's), or -1
+  int body = -1;       ///< index into Scene::bodies of the body carrying it (its pose follows the body's), or -1
   BodyMarker on_body;  ///< the marker's place on that body
 };
 
@@ -69,7 +67,7 @@ struct SceneMarker {
 /// are in Scene::markers (body = its index), drawn wherever the body's pose puts them.
 struct SceneBody {
   BodyDef def;
-  MarkerPose start;   ///< x, y of the body origin at t = 0 (z: origin height), yaw offset
+  MarkerPose start;                ///< x, y of the body origin at t = 0 (z: origin height), yaw offset
   double roll = 0.0, pitch = 0.0;  ///< a fixed tilt of the body (radians), applied before yaw
   Trajectory trajectory;
 };
@@ -84,9 +82,7 @@ struct SceneCamera {
   Eigen::Vector3d world_to_camera(const Eigen::Vector3d& p_world) const {
     return R_wc.transpose() * (p_world - position);
   }
-  Eigen::Vector3d camera_to_world(const Eigen::Vector3d& p_cam) const {
-    return R_wc * p_cam + position;
-  }
+  Eigen::Vector3d camera_to_world(const Eigen::Vector3d& p_cam) const { return R_wc * p_cam + position; }
 };
 
 struct Floor {

@@ -1,7 +1,7 @@
 // A FrameSource that renders one camera of a simulated Scene (moving markers, exact truth).
 //
-// Time: frame k is captured at scene time t_k = phase + k / fps (phase 0 unless set). Scene time 0 is the CLOCK_MONOTONIC
-// instant `epoch_mono_ns`, so frame k carries t_mono_ns = epoch + round(k * 1e9 / fps) and
+// Time: frame k is captured at scene time t_k = phase + k / fps (phase 0 unless set). Scene time 0 is the
+// CLOCK_MONOTONIC instant `epoch_mono_ns`, so frame k carries t_mono_ns = epoch + round(k * 1e9 / fps) and
 // scene_time(t_mono_ns) recovers t_k. Several sources of the same scene given the same epoch
 // (one per camera) therefore agree on the scene time of any capture time, and the truth of a
 // frame is scene.marker_pose(id, source.scene_time(frame.t_mono_ns)).
@@ -29,10 +29,10 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
-#include <mutex>
-#include <thread>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "ips/capture/frame_source.h"
@@ -43,16 +43,16 @@
 namespace ips::sim {
 
 struct SyntheticSourceOptions {
-  std::string camera;    ///< camera name in the scene
-  double fps = 30.0;     ///< frame rate, frames per second of scene time
-  bool realtime = true;  ///< pace on CLOCK_MONOTONIC (true) or as fast as possible
-  std::int64_t epoch_mono_ns =
-      0;                         ///< CLOCK_MONOTONIC of scene time 0; 0 = monotonic_ns() at open()
-  std::uint64_t max_frames = 0;  ///< read() returns kEnd after this many frames; 0 = endless
-  bool colour_jpeg = false;  ///< encode as 3-channel MJPEG like a USB camera (slower) or 1-channel
-  bool render_ahead = false;  ///< realtime only: render on a thread of its own, deliver with a delay
+  std::string camera;              ///< camera name in the scene
+  double fps = 30.0;               ///< frame rate, frames per second of scene time
+  bool realtime = true;            ///< pace on CLOCK_MONOTONIC (true) or as fast as possible
+  std::int64_t epoch_mono_ns = 0;  ///< CLOCK_MONOTONIC of scene time 0; 0 = monotonic_ns() at open()
+  std::uint64_t max_frames = 0;    ///< read() returns kEnd after this many frames; 0 = endless
+  bool colour_jpeg = false;        ///< encode as 3-channel MJPEG like a USB camera (slower) or 1-channel
+  bool render_ahead = false;       ///< realtime only: render on a thread of its own, deliver with a delay
   std::int64_t transport_delay_ns = -1;
-  std::int64_t phase_ns = 0;  ///< frame k is captured at scene time phase + k / fps (unsynchronised cameras)  ///< render_ahead: capture -> delivery, ns; -1 = one frame period
+  std::int64_t phase_ns = 0;  ///< frame k is captured at scene time phase + k / fps (unsynchronised cameras)  ///<
+                              ///< render_ahead: capture -> delivery, ns; -1 = one frame period
 };
 
 class SyntheticSource : public FrameSource {
@@ -74,14 +74,10 @@ class SyntheticSource : public FrameSource {
   bool defer_decode(bool on) override;
 
   /// Scene time (seconds) of a capture time stamped by this source.
-  double scene_time(std::int64_t t_mono_ns) const {
-    return static_cast<double>(t_mono_ns - epoch_mono_ns_) * 1e-9;
-  }
+  double scene_time(std::int64_t t_mono_ns) const { return static_cast<double>(t_mono_ns - epoch_mono_ns_) * 1e-9; }
   std::int64_t epoch_mono_ns() const { return epoch_mono_ns_; }
   /// Truth of every scene marker in this camera at a frame's capture time.
-  std::vector<MarkerTruth> truth(std::int64_t t_mono_ns) const {
-    return renderer_.truth(scene_time(t_mono_ns));
-  }
+  std::vector<MarkerTruth> truth(std::int64_t t_mono_ns) const { return renderer_.truth(scene_time(t_mono_ns)); }
   /// The JPEG bytes of the last frame (empty when the scene's jpeg_quality is 0).
   const std::vector<std::uint8_t>& last_jpeg() const { return jpeg_; }
   const CameraRenderer& renderer() const { return renderer_; }
@@ -93,7 +89,7 @@ class SyntheticSource : public FrameSource {
   ReadStatus read_ahead(Frame& out, std::chrono::milliseconds timeout);
 
   static constexpr std::size_t kAhead = 2;  ///< frames rendered ahead at most
-  bool external_state_ = false;  ///< the scene has a hand-placed marker: render at capture time, not before
+  bool external_state_ = false;             ///< the scene has a hand-placed marker: render at capture time, not before
   struct Rendered {
     std::uint64_t k = 0;
     std::vector<std::uint8_t> jpeg;  ///< or, with jpeg_quality 0:

@@ -19,8 +19,8 @@
 
 #include <Eigen/Core>
 
-#include "ips/geometry/camera_model.h"
 #include "ips/core/observation.h"
+#include "ips/geometry/camera_model.h"
 
 namespace ips::survey {
 
@@ -35,8 +35,8 @@ struct Detection {
 };
 
 struct SessionCamera {
-  std::string name;  ///< the camera's name in the config
-  std::string file;  ///< its detections file, relative to the session directory
+  std::string name;                   ///< the camera's name in the config
+  std::string file;                   ///< its detections file, relative to the session directory
   std::vector<Detection> detections;  ///< filled by load_session
 };
 
@@ -45,7 +45,7 @@ struct Session {
   std::string config;       ///< the config file the session was recorded with
   std::string fingerprint;  ///< camera_fingerprint() of that config's cameras
   std::string dictionary;
-  double seconds = 0.0;     ///< recorded span
+  double seconds = 0.0;  ///< recorded span
   std::vector<SessionCamera> cameras;
 };
 
@@ -75,7 +75,7 @@ struct StillOptions {
   double still_px = 0.5;     ///< every corner of every frame within this many pixels of the period's mean
   double min_still_s = 0.3;  ///< shortest still period
   int min_frames = 3;
-  double max_gap_s = 0.25;   ///< a longer gap between two detections ends the period
+  double max_gap_s = 0.25;  ///< a longer gap between two detections ends the period
 };
 
 /// Every camera's still periods of every marker.
@@ -110,20 +110,20 @@ struct SurveyCamera {
 };
 
 struct SurveyInput {
-  std::vector<SurveyCamera> cameras;        ///< in Session::cameras order
-  std::vector<Instant> instants;            ///< wand and reference instants
+  std::vector<SurveyCamera> cameras;  ///< in Session::cameras order
+  std::vector<Instant> instants;      ///< wand and reference instants
   std::vector<Reference> references;
-  std::map<int, double> edge_length;        ///< per marker id seen; metres
-  double huber_px = 1.0;                    ///< robust loss scale, pixels
-  int min_shared = 3;                       ///< instants a camera must share to be chained
+  std::map<int, double> edge_length;  ///< per marker id seen; metres
+  double huber_px = 1.0;              ///< robust loss scale, pixels
+  int min_shared = 3;                 ///< instants a camera must share to be chained
 };
 
 struct CameraResult {
   std::string name, model;
   Eigen::Matrix3d R_wc = Eigen::Matrix3d::Identity();  ///< columns: camera axes in the world
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();    ///< optical centre, world, metres
-  double rms_px = 0.0;           ///< reprojection RMS of its corners, pixels
-  int observations = 0;          ///< marker views (4 corners each) used
+  double rms_px = 0.0;                                 ///< reprojection RMS of its corners, pixels
+  int observations = 0;                                ///< marker views (4 corners each) used
   int references_seen = 0;
   Eigen::Vector3d sigma = Eigen::Vector3d::Zero();  ///< 1-sigma of the centre, metres (x, y, z)
   bool covariance_ok = false;
@@ -156,7 +156,6 @@ struct SurveyResult {
 SurveyResult run_survey(const SurveyInput& input);
 
 /// The report image: top view of cameras, floor footprints, wand path and references.
-void write_report_png(const SurveyResult& result, const SurveyInput& input,
-                      const std::filesystem::path& path);
+void write_report_png(const SurveyResult& result, const SurveyInput& input, const std::filesystem::path& path);
 
 }  // namespace ips::survey

@@ -20,9 +20,9 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "ips/web/web_settings.h"
 #include "ips/core/observation.h"
 #include "ips/output/packet_codec.h"
+#include "ips/web/web_settings.h"
 
 namespace ips {
 
@@ -62,7 +62,18 @@ class FrameTap {
 /// Where a request goes (pure function of method and path; tested on its own). GET and HEAD
 /// are served; any other method is kBadMethod.
 struct Route {
-  enum class Kind { kPage, kAsset, kStatus, kLayout, kEvents, kCameraJpeg, kCameraJson, kNotFound, kBadMethod, kBadRequest };
+  enum class Kind {
+    kPage,
+    kAsset,
+    kStatus,
+    kLayout,
+    kEvents,
+    kCameraJpeg,
+    kCameraJson,
+    kNotFound,
+    kBadMethod,
+    kBadRequest
+  };
   Kind kind = Kind::kNotFound;
   std::string name;   ///< asset file name or camera name
   bool head = false;  ///< HEAD: the GET answer's status and headers, no body
@@ -82,8 +93,8 @@ const Asset* find_asset(const std::string& name);
 /// the intrinsics and the mapper's world ray onto z = `height`, as a closed polygon (world
 /// x, y). Rays that miss the floor or land further than `max_range` m from below the camera
 /// are cut there. Empty when the mapper has no camera pose (world_ray() false).
-std::vector<Eigen::Vector2d> camera_footprint(const CameraModel& intrinsics, const Mapper& mapper,
-                                              double height = 0.0, double max_range = 6.0);
+std::vector<Eigen::Vector2d> camera_footprint(const CameraModel& intrinsics, const Mapper& mapper, double height = 0.0,
+                                              double max_range = 6.0);
 
 /// The camera view image: `snapshot` downscaled to at most `width` pixels wide, with the
 /// detections' outlines and ids (green) drawn; `info` gets their geometry in JPEG pixels and
@@ -98,15 +109,15 @@ CameraView render_camera_view(const std::string& camera, const FrameSnapshot& sn
                               const std::string& dictionary);
 
 struct WebCounters {
-  std::uint64_t clients = 0;          ///< live streams now
-  std::uint64_t clients_total = 0;    ///< streams opened since start
-  std::uint64_t refused = 0;          ///< streams refused (max_clients or max_per_address reached)
-  std::uint64_t messages = 0;         ///< stream messages sent
-  std::uint64_t dropped = 0;          ///< stream messages dropped (a client's queue was full)
-  std::uint64_t inbox_dropped = 0;    ///< fused updates dropped before the fan-out thread saw them
-  std::uint64_t frames = 0;           ///< camera view images encoded
-  std::uint64_t bad_requests = 0;     ///< 4xx answers (and our 503s)
-  std::uint64_t limited = 0;          ///< requests refused with 503 because their address had max_per_address
+  std::uint64_t clients = 0;        ///< live streams now
+  std::uint64_t clients_total = 0;  ///< streams opened since start
+  std::uint64_t refused = 0;        ///< streams refused (max_clients or max_per_address reached)
+  std::uint64_t messages = 0;       ///< stream messages sent
+  std::uint64_t dropped = 0;        ///< stream messages dropped (a client's queue was full)
+  std::uint64_t inbox_dropped = 0;  ///< fused updates dropped before the fan-out thread saw them
+  std::uint64_t frames = 0;         ///< camera view images encoded
+  std::uint64_t bad_requests = 0;   ///< 4xx answers (and our 503s)
+  std::uint64_t limited = 0;        ///< requests refused with 503 because their address had max_per_address
 };
 
 class WebServer {
