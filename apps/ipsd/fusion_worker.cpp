@@ -150,16 +150,18 @@ void FusionWorker::run() {
         bodies->add(batch.camera_index, batch.t_mono_ns, batch.t_real_ns, batch.bodies, *rt->fusion, body_states);
       if (period == 0) publish(states, body_states, batch.t_mono_ns, batch.t_real_ns, batch.t_delivered_ns, *rt);
     }
-    if (period > 0 && ips::monotonic_ns() >= next_tick) {
-      // Fixed rate: every marker's state predicted to the publish instant; every body's newest
-      // pose as it is (its dt_us says how old).
-      const std::int64_t t = ips::monotonic_ns();
+    if (const std::int64_t woke = ips::monotonic_ns(); period > 0 && woke >= next_tick) {
+      // Fixed rate: every marker's state predicted to the tick, an instant of an exact grid
+      // (period apart), whenever this thread got to run: a starved machine sends a tick late, it
+      // does not move it. Every body's newest pose as it is (its dt_us says how old).
+      const std::int64_t t = next_tick;
       states.clear();
       fusion.predict_all(t, t + ips::realtime_minus_monotonic_ns(), *rt->fusion, states);
       body_states.clear();
       if (bodies) bodies->latest(t, body_states);
       publish(states, body_states, t, t + ips::realtime_minus_monotonic_ns(), 0, *rt);
-      next_tick = std::max(next_tick + period, t);
+      // The next tick of the grid after now: ticks a stall made this thread miss are skipped.
+      next_tick += period * (1 + (woke - next_tick) / period);
     }
     if (bodies) {
       stats_.late += bodies->late() - counted_body_late;
