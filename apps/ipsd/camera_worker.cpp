@@ -23,8 +23,13 @@ constexpr int kMaxSkip = 8;
 }  // namespace
 
 CameraWorker::CameraWorker(const ips::CameraConfig& config, ips::SourceFactory factory, RuntimeHolder& runtime,
-                           ObservationQueue& queue, CameraStats& stats)
-    : config_(config), supervisor_(config.name, std::move(factory)), runtime_(runtime), queue_(queue), stats_(stats) {
+                           ips::FrameScheduler& scheduler, ObservationQueue& queue, CameraStats& stats)
+    : config_(config),
+      supervisor_(config.name, std::move(factory)),
+      runtime_(runtime),
+      scheduler_(scheduler),
+      queue_(queue),
+      stats_(stats) {
   // MJPEG frames arrive undecoded: process() decodes only the regions the tracker searches
   // (and a frame skipped to stay on the newest one is never decoded at all).
   supervisor_.set_defer_decode(true);
@@ -67,8 +72,8 @@ void CameraWorker::run() {
     if (supervisor_.failures() != reported_failures) {
       reported_failures = supervisor_.failures();
       stats_.failures = reported_failures;
-      have_sequence = false;              // a reopened source restarts its counter
-      if (detector_) detector_->reset();  // and may show anything: search in full
+      have_sequence = false;   // a reopened source restarts its counter
+      reset_detector_ = true;  // and may show anything: search in full (at process())
       std::lock_guard lock(stats_.error_mutex);
       stats_.last_error = supervisor_.last_error();
     }
@@ -98,13 +103,19 @@ void CameraWorker::run() {
     if (have_sequence && frame.sequence > last_sequence + 1) stats_.drops += frame.sequence - last_sequence - 1;
     have_sequence = true;
     last_sequence = frame.sequence;
-    process(frame);
+    // To the workers; the frame handed back (a spent one of this camera) keeps its buffers.
+    bool superseded = false;
+    frame = scheduler_.submit(config_.index, std::move(frame), &superseded);
+    if (superseded) ++stats_.drops;
   }
   stats_.state = static_cast<int>(CameraState::kDown);
 }
 
 void CameraWorker::process(ips::Frame& frame) {
+  const std::int64_t started = ips::monotonic_ns();
+  stats_.queue_ns += static_cast<std::uint64_t>(std::max<std::int64_t>(0, started - frame.t_delivered_ns));
   const std::shared_ptr<const Runtime> rt = runtime_.get();
+  if (reset_detector_.exchange(false) && detector_) detector_->reset();
   const int index = config_.index;
   // First frame, or a reload changed detection or tracking. The camera index as the tracker's
   // phase: the cameras' full-frame searches fall on different frames.

@@ -9,6 +9,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -41,6 +42,8 @@ void release_free_memory(const char* why) {
 
 struct Daemon::Pipeline {
   ObservationQueue queue;
+  std::unique_ptr<ips::FrameScheduler> scheduler;
+  std::unique_ptr<FrameWorkers> workers;
   std::vector<std::unique_ptr<CameraStats>> camera_stats;
   std::vector<CameraStats*> camera_ptrs;
   std::vector<std::string> names;
@@ -77,11 +80,23 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
     p->camera_ptrs.push_back(p->camera_stats.back().get());
     p->names.push_back(cam.name);
   }
+  // A frame's budget: processing.budget, or one frame period of its camera.
+  std::vector<std::int64_t> budgets;
+  for (const auto& cam : config.cameras)
+    budgets.push_back(
+        std::llround(1e9 * (config.processing.budget_s > 0 ? config.processing.budget_s : 1.0 / cam.fps)));
+  p->scheduler = std::make_unique<ips::FrameScheduler>(std::move(budgets));
+  std::vector<CameraWorker*> processors;
   for (const auto& cam : config.cameras) {
     p->cameras.push_back(std::make_unique<CameraWorker>(cam, std::move(factories[static_cast<std::size_t>(cam.index)]),
-                                                        runtime_, p->queue,
+                                                        runtime_, *p->scheduler, p->queue,
                                                         *p->camera_stats[static_cast<std::size_t>(cam.index)]));
+    processors.push_back(p->cameras.back().get());
   }
+  const int workers = config.processing.workers > 0
+                          ? config.processing.workers
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  p->workers = std::make_unique<FrameWorkers>(*p->scheduler, std::move(processors), workers);
   runtime_.set(std::move(runtime));
   // Open every camera once before anything runs: a required camera that is absent stops the
   // start; the others are retried by their thread with back-off.
@@ -101,6 +116,7 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
     web_->set_layout(web_layout(*runtime_.get()));
   }
   p->fusion->start();
+  p->workers->start();
   for (auto& c : p->cameras) c->start();
   pipeline_ = std::move(p);
   return true;
@@ -109,9 +125,12 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
 void Daemon::stop_pipeline() {
   if (!pipeline_) return;
   for (auto& c : pipeline_->cameras) c->request_stop();
+  pipeline_->workers->request_stop();
+  pipeline_->scheduler->close();
   pipeline_->fusion->request_stop();
   pipeline_->queue.close();
   for (auto& c : pipeline_->cameras) c->join();
+  pipeline_->workers->join();
   pipeline_->fusion->join();
   pipeline_.reset();
 }
@@ -136,13 +155,14 @@ void Daemon::reload() {
       spdlog::warn(
           "reload: outputs changed: every output is opened anew (sequence numbers restart, subscribers are "
           "dropped until they renew their lease)");
-    if (config.cameras == old->config.cameras) {
+    if (config.cameras == old->config.cameras && config.processing == old->config.processing) {
       runtime_.set(fresh);  // the threads pick it up at their next frame
       if (web_) web_->set_layout(web_layout(*fresh));
       spdlog::info("reload: applied {} (model file {})", config_path_.string(), config.model_file.string());
     } else {
       auto factories = make_factories(config);  // may refuse the new cameras: nothing stopped yet
-      spdlog::info("reload: the cameras changed, restarting the camera threads");
+      spdlog::info("reload: the {} changed, restarting the camera threads",
+                   config.cameras != old->config.cameras ? "cameras" : "processing settings");
       stop_pipeline();
       release_free_memory("camera threads restarted");
       start_pipeline(fresh, std::move(factories), false);
@@ -160,6 +180,8 @@ void Daemon::tick(std::int64_t now) {
   Pipeline& p = *pipeline_;
   if (now >= next_sample_ns_) {
     next_sample_ns_ = now + kSampleNs;
+    for (int i = 0; i < p.scheduler->cameras(); ++i)
+      p.camera_ptrs[static_cast<std::size_t>(i)]->over_budget = p.scheduler->counters(i).over_budget;
     p.rates.sample(p.camera_ptrs, p.names, p.fusion_stats, now);
     sd_notify(0, ("STATUS=" + systemd_status(p.rates)).c_str());
     if (web_) web_->set_status(status_document().dump());
@@ -185,6 +207,8 @@ void Daemon::tick(std::int64_t now) {
     for (std::size_t i = 0; i < p.camera_ptrs.size(); ++i)
       if (now - p.camera_ptrs[i]->heartbeat_ns > limit) stuck += " " + p.names[i];
     if (now - p.fusion_stats.heartbeat_ns > limit) stuck += " fusion";
+    for (int k = 0; k < p.workers->count(); ++k)
+      if (now - p.workers->heartbeat_ns(k) > limit) stuck += " work:" + std::to_string(k);
     if (stuck.empty()) {
       sd_notify(0, "WATCHDOG=1");
       if (stalled_) spdlog::info("watchdog: every thread is making progress again");

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "camera_worker.h"
+#include "frame_workers.h"
 #include "fusion_worker.h"
 #include "ips/web/web.h"
 #include "pipeline.h"

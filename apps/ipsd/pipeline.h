@@ -90,11 +90,14 @@ enum class CameraState : int { kStarting = 0, kOpen = 1, kDown = 2 };
 
 /// Counters of one camera thread (written by it, read by the main thread).
 struct CameraStats {
-  std::atomic<std::uint64_t> frames{0};         ///< frames processed
-  std::atomic<std::uint64_t> drops{0};          ///< frames skipped to stay on the newest + source sequence gaps
+  std::atomic<std::uint64_t> frames{0};  ///< frames processed
+  /// frames not processed: skipped or replaced to stay on the newest, over budget, source sequence gaps
+  std::atomic<std::uint64_t> drops{0};
   std::atomic<std::uint64_t> corrupt{0};        ///< undecodable frames
   std::atomic<std::uint64_t> failures{0};       ///< source failures (open errors, unplug, end)
   std::atomic<std::uint64_t> detect_ns{0};      ///< sum of detect+locate+map time
+  std::atomic<std::uint64_t> queue_ns{0};       ///< sum of the waits delivery -> a worker starts the frame
+  std::atomic<std::uint64_t> over_budget{0};    ///< frames dropped unprocessed: they waited a whole budget (in drops)
   std::atomic<std::uint64_t> markers{0};        ///< sum of markers mapped
   std::atomic<std::uint64_t> no_height{0};      ///< markers dropped: the mapper needs a height, none configured
   std::atomic<std::uint64_t> body_rejected{0};  ///< body markers whose view gave no body observation

@@ -26,19 +26,22 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
     CameraRates& r = rates_[i];
     Previous& p = previous_[i];
     r.name = names[i];
-    const std::uint64_t frames = s.frames, detect_ns = s.detect_ns, markers = s.markers;
+    const std::uint64_t frames = s.frames, detect_ns = s.detect_ns, markers = s.markers, queue_ns = s.queue_ns;
     const std::uint64_t df = frames - p.frames;
     r.fps = dt > 0 ? static_cast<double>(df) / dt : 0.0;
     r.detect_ms = df ? 1e-6 * static_cast<double>(detect_ns - p.detect_ns) / static_cast<double>(df) : 0.0;
     r.markers = df ? static_cast<double>(markers - p.markers) / static_cast<double>(df) : 0.0;
-    p = {frames, detect_ns, markers};
+    r.queue_ms = df ? 1e-6 * static_cast<double>(queue_ns - p.queue_ns) / static_cast<double>(df) : 0.0;
+    p = {frames, detect_ns, markers, queue_ns};
     r.frames = frames;
     r.detect_ns_total = detect_ns;
+    r.queue_ns_total = queue_ns;
     r.markers_total = markers;
     r.drops = s.drops;
     r.corrupt = s.corrupt;
     r.failures = s.failures;
     r.no_height = s.no_height;
+    r.over_budget = s.over_budget;
     r.body_rejected = s.body_rejected;
     const int state = s.state;
     r.state = state == static_cast<int>(CameraState::kOpen)   ? "open"
@@ -57,9 +60,10 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
 std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fusion, std::uint64_t queue_drops) {
   std::vector<std::string> lines;
   for (const auto& c : rates.cameras()) {
-    std::string line =
-        fmt::format("{}: {:.1f} fps, detect {:.1f} ms, {:.1f} markers, drops {}, corrupt {}, errors {}, {}", c.name,
-                    c.fps, c.detect_ms, c.markers, c.drops, c.corrupt, c.failures, c.state);
+    std::string line = fmt::format(
+        "{}: {:.1f} fps, queue {:.1f} ms, detect {:.1f} ms, {:.1f} markers, drops {}, corrupt {}, errors {}, {}",
+        c.name, c.fps, c.queue_ms, c.detect_ms, c.markers, c.drops, c.corrupt, c.failures, c.state);
+    if (c.over_budget) line += fmt::format(", {} over budget", c.over_budget);
     if (c.no_height) line += fmt::format(", {} without height", c.no_height);
     if (c.body_rejected) line += fmt::format(", {} body views rejected", c.body_rejected);
     if (c.state != "open" && !c.last_error.empty()) line += " (" + c.last_error + ")";
@@ -124,16 +128,19 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
                             {"source", c.source},
                             {"state", c.state},
                             {"fps", c.fps},
+                            {"queue_ms", c.queue_ms},
                             {"detect_ms", c.detect_ms},
                             {"markers", c.markers},
                             {"frames", c.frames},
                             {"drops", c.drops},
+                            {"over_budget", c.over_budget},
                             {"corrupt", c.corrupt},
                             {"errors", c.failures},
                             {"no_height", c.no_height},
                             {"body_rejected", c.body_rejected},
                             {"last_error", c.last_error},
                             {"detect_s_total", 1e-9 * static_cast<double>(c.detect_ns_total)},
+                            {"queue_s_total", 1e-9 * static_cast<double>(c.queue_ns_total)},
                             {"markers_total", c.markers_total}});
   }
   j["outputs"] = nlohmann::json::array();

@@ -20,10 +20,12 @@ struct CameraRates {
   std::string last_error;
   double fps = 0;        ///< frames processed per second over the last sample period
   double detect_ms = 0;  ///< mean detect+locate+map time per frame, ms
+  double queue_ms = 0;   ///< mean wait from delivery until a worker started the frame, ms
   double markers = 0;    ///< mean markers per frame
   std::uint64_t frames = 0, drops = 0, corrupt = 0, failures = 0, no_height = 0;
+  std::uint64_t over_budget = 0;    ///< frames dropped unprocessed after waiting a whole budget (in drops)
   std::uint64_t body_rejected = 0;  ///< body markers whose view gave no body observation (docs/bodies.md)
-  std::uint64_t detect_ns_total = 0, markers_total = 0;  ///< since start
+  std::uint64_t detect_ns_total = 0, queue_ns_total = 0, markers_total = 0;  ///< since start
 };
 
 /// Samples counters at each call and turns the differences into rates.
@@ -36,7 +38,7 @@ class RateSampler {
 
  private:
   struct Previous {
-    std::uint64_t frames = 0, detect_ns = 0, markers = 0;
+    std::uint64_t frames = 0, detect_ns = 0, markers = 0, queue_ns = 0;
   };
   std::vector<Previous> previous_;
   std::uint64_t previous_updates_ = 0;

@@ -95,6 +95,17 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
 
   if (r.has("web")) parse_web(r.node("web"), file, c.web);
 
+  if (r.has("processing")) {
+    MapReader w(r.node("processing"), "processing", file);
+    w.get("workers", c.processing.workers);
+    if (c.processing.workers < 0 || c.processing.workers > 64)
+      w.fail(w.raw()["workers"], "processing.workers", "must be 0..64 (0 = one per core)");
+    w.get_number("budget", c.processing.budget_s, 0.0, false);
+    if (c.processing.budget_s > 10)
+      w.fail(w.raw()["budget"], "processing.budget", "must be <= 10 seconds (0 = one frame period)");
+    w.finish();
+  }
+
   if (r.has("watchdog")) {
     MapReader w(r.node("watchdog"), "watchdog", file);
     w.get_number("stall_timeout", c.stall_timeout_s, 0.0, true);

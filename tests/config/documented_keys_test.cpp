@@ -111,6 +111,7 @@ outputs:
   - {type: ros2, domain: 0, prefix: ipsd, pose: true, odometry: true, tf: true, depth: 1}
 logging: {level: info}
 status: {interval: 10, socket: ""}
+processing: {workers: 2, budget: 0.033}
 watchdog: {stall_timeout: 2}
 web: {listen: "127.0.0.1:8080", floor: [0, 0, 4, 4]}
 )";

@@ -30,6 +30,16 @@ struct StatusConfig {
   std::string socket;        ///< unix stream socket for `ips status`; "" = none
 };
 
+/// processing.*: the workers that process the cameras' frames (oldest capture first).
+struct ProcessingConfig {
+  int workers = 0;  ///< worker threads; 0 = one per core
+  /// A frame no worker could start within this long of its delivery is dropped unprocessed and
+  /// counted, s; 0 = one frame period of its camera.
+  double budget_s = 0.0;
+
+  bool operator==(const ProcessingConfig&) const = default;
+};
+
 struct DaemonConfig {
   std::filesystem::path file;  ///< where it was loaded from (for messages)
   std::vector<CameraConfig> cameras;
@@ -44,6 +54,7 @@ struct DaemonConfig {
   FusionConfig fusion;
   std::vector<OutputConfig> outputs;
   std::string log_level = "info";  ///< trace | debug | info | warn | error
+  ProcessingConfig processing;
   StatusConfig status;
   WebConfig web;
   double stall_timeout_s = 2.0;  ///< watchdog: a thread without progress this long withholds WATCHDOG=1
