@@ -47,8 +47,8 @@ def datagram(markers, velocity=False, part=0, parts=1, extra=0, bodies=None, bod
     return h + body
 
 
-def tj_small(jpeg, w, h, gray, samp, progressive, quality):
-    """`jpeg` decoded at 1/8 scale, its top-left w x h re-encoded (TJPF_GRAY=6 / TJPF_RGB=0)."""
+def tj_crop(jpeg, w, h, gray):
+    """`jpeg` decoded at 1/8 scale, its middle w x h as raw grey or RGB bytes."""
     import ctypes
     tj = ctypes.CDLL("libturbojpeg.so.0")
     tj.tjInitDecompress.restype = tj.tjInitCompress.restype = ctypes.c_void_p
@@ -61,7 +61,16 @@ def tj_small(jpeg, w, h, gray, samp, progressive, quality):
     full = ctypes.create_string_buffer(sw * sh * ch)
     assert tj.tjDecompress2(d, jpeg, ctypes.c_ulong(len(jpeg)), full, sw, sw * ch, sh, 6 if gray else 0, 0) == 0
     x0, y0 = (sw - w) // 2, (sh - h) // 2  # the middle, where the picture is
-    crop = b"".join(full.raw[((y0 + y) * sw + x0) * ch:((y0 + y) * sw + x0 + w) * ch] for y in range(h))
+    return b"".join(full.raw[((y0 + y) * sw + x0) * ch:((y0 + y) * sw + x0 + w) * ch] for y in range(h))
+
+
+def tj_small(jpeg, w, h, gray, samp, progressive, quality):
+    """`jpeg` decoded at 1/8 scale, its middle w x h re-encoded (TJPF_GRAY=6 / TJPF_RGB=0)."""
+    import ctypes
+    tj = ctypes.CDLL("libturbojpeg.so.0")
+    tj.tjInitCompress.restype = ctypes.c_void_p
+    crop = tj_crop(jpeg, w, h, gray)
+    ch = 1 if gray else 3
     c = ctypes.c_void_p(tj.tjInitCompress())
     out, size = ctypes.c_void_p(), ctypes.c_ulong()
     assert tj.tjCompress2(c, crop, w, w * ch, h, 6 if gray else 0, ctypes.byref(out), ctypes.byref(size), samp,
@@ -147,6 +156,15 @@ def main():
             "color444_32x32.jpg": (32, 32, False, 0, False, 95),
             "odd_33x17.jpg": (33, 17, True, 3, True, 40)}.items():
         put("jpeg", name, tj_small(photo, w, h, gray, samp, progressive, quality))
+    # With restart markers, as some cameras send them (region decodes cut rows out at them):
+    # libjpeg-turbo's cjpeg (package libjpeg-turbo-progs), since TurboJPEG 2 cannot write them.
+    for name, (w, h, gray, restart) in {
+            "color420_restart_rows_96x48.jpg": (96, 48, False, "1"),
+            "color420_restart_2rows_50x41.jpg": (50, 41, False, "2"),
+            "gray_restart_3mcus_64x48.jpg": (64, 48, True, "3B")}.items():
+        pnm = (b"P5" if gray else b"P6") + b" %d %d 255\n" % (w, h) + tj_crop(photo, w, h, gray)
+        put("jpeg", name, subprocess.run(["cjpeg", "-quality", "85", "-dct", "fast", "-restart", restart], input=pnm,
+                                         stdout=subprocess.PIPE, check=True).stdout)
 
 if __name__ == "__main__":
     main()

@@ -41,6 +41,7 @@ TEST_PACKAGES=(
   chromium                                 # headless browser for the web view's tests
   clang-14 libclang-rt-14-dev               # the sanitizer build and libFuzzer (fuzz/)
   clang-format-14                          # the formatting check (.clang-format)
+  libjpeg-turbo-progs                      # cjpeg: fuzz/make_seeds.py writes the JPEG seeds with restart markers
   lintian                                  # tests/package: the .deb checked against Debian policy
 )
 if [ "$layer" = test ]; then PACKAGES+=("${TEST_PACKAGES[@]}"); fi

@@ -35,6 +35,7 @@ struct RenderArgs {
   int frames = 1;
   double fps = 30.0;
   std::vector<std::string> cameras;
+  int restart_rows = -1;  // -1: the scene's render.jpeg_restart_rows
 };
 
 struct CollectArgs {
@@ -74,10 +75,10 @@ nlohmann::json truth_json(const ips::sim::MarkerTruth& t) {
   return j;
 }
 
-std::string encode_frame(const cv::Mat& gray, int quality, std::string& extension) {
+std::string encode_frame(const cv::Mat& gray, int quality, int restart_rows, std::string& extension) {
   if (quality > 0) {
     extension = ".jpg";
-    const auto bytes = ips::sim::encode_jpeg(gray, quality, true);
+    const auto bytes = ips::sim::encode_jpeg(gray, quality, true, restart_rows);
     return {bytes.begin(), bytes.end()};
   }
   extension = ".png";
@@ -89,7 +90,9 @@ std::string encode_frame(const cv::Mat& gray, int quality, std::string& extensio
 int run_render(const RenderArgs& a) {
   if (a.frames < 1) throw ips::InputError("--frames must be >= 1");
   if (!(a.fps > 0)) throw ips::InputError("--fps must be > 0");
-  const Scene scene = Scene::load(a.scene);
+  Scene scene = Scene::load(a.scene);
+  if (a.restart_rows > 255) throw ips::InputError("--jpeg-restart-rows must be 0..255");
+  if (a.restart_rows >= 0) scene.render.jpeg_restart_rows = a.restart_rows;
   const auto cams = selected_cameras(scene, a.cameras);
   fs::create_directories(a.out);
   std::vector<std::unique_ptr<CameraRenderer>> renderers;
@@ -112,7 +115,7 @@ int run_render(const RenderArgs& a) {
       const std::string& name = r->camera().name;
       r->render(t, gray, static_cast<std::uint64_t>(k));
       std::string ext;
-      const std::string bytes = encode_frame(gray, scene.render.jpeg_quality, ext);
+      const std::string bytes = encode_frame(gray, scene.render.jpeg_quality, scene.render.jpeg_restart_rows, ext);
       const std::string file = name + "_" + stem + ext;
       ips::cli::write_file_atomically(fs::path(a.out) / file, bytes);
       frame["images"][name] = file;
@@ -182,7 +185,9 @@ int run_collect(const CollectArgs& a) {
       r.render_markers({{m, {pose}}}, gray, frame++);
       const cv::Mat* image = &gray;
       if (scene.render.jpeg_quality > 0) {
-        if (!decoder.decode_gray(ips::sim::encode_jpeg(gray, scene.render.jpeg_quality, true), decoded)) {
+        if (!decoder.decode_gray(
+                ips::sim::encode_jpeg(gray, scene.render.jpeg_quality, true, scene.render.jpeg_restart_rows),
+                decoded)) {
           throw std::runtime_error("JPEG round trip failed: " + decoder.error());
         }
         image = &decoded;
@@ -220,6 +225,9 @@ std::function<int()> setup_sim(CLI::App& sub) {
   render->add_option("--frames", r->frames, "Number of frames")->capture_default_str();
   render->add_option("--fps", r->fps, "Frame rate: frame k is at scene time k / fps")->capture_default_str();
   render->add_option("--camera", r->cameras, "Only these cameras (repeatable; default all)");
+  render->add_option("--jpeg-restart-rows", r->restart_rows,
+                     "A restart marker every N MCU rows, as some cameras send (0 = none; default: the scene's "
+                     "render.jpeg_restart_rows)");
 
   auto c = std::make_shared<CollectArgs>();
   CLI::App* collect = sub.add_subcommand(

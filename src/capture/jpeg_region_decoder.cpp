@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "ips/capture/jpeg_restart.h"
+
 // jpeglib.h needs FILE and size_t declared first.
 #include <jpeglib.h>
 
@@ -37,6 +39,13 @@ struct JpegRegionDecoder::Impl {
   jpeg_decompress_struct cinfo{};
   ErrorManager err{};
   std::vector<std::pair<int, int>> bands;  // [first, last) rows to decode
+  // The restart-marker path (reused frame to frame): the frame's layout, the MCU rows to cut
+  // out of it, and the cut.
+  JpegRestartLayout layout;
+  std::vector<std::pair<int, int>> mcu_rows;
+  JpegRowCutter cutter;
+  std::vector<std::uint8_t> cut;
+  std::string why;
 };
 
 JpegRegionDecoder::JpegRegionDecoder() : impl_(new Impl) {
@@ -121,6 +130,11 @@ bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray
     jpeg_abort_decompress(&c);
     return true;
   }
+  if (!rois.empty() && plan_restart_cut(jpeg, width, height)) {
+    jpeg_abort_decompress(&c);
+    return decode_cut(gray, x0, x1);
+  }
+  if (!rois.empty()) ++skipped_by_huffman_;
   jpeg_start_decompress(&c);
   JDIMENSION xoff = static_cast<JDIMENSION>(x0);
   JDIMENSION cw = static_cast<JDIMENSION>(x1 - x0);
@@ -144,6 +158,64 @@ bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray
   } else {
     jpeg_finish_decompress(&c);
   }
+  return true;
+}
+
+bool JpegRegionDecoder::plan_restart_cut(std::span<const std::uint8_t> jpeg, int width, int height) {
+  Impl& m = *impl_;
+  if (!read_jpeg_restart_layout(jpeg, m.layout, m.why) || m.layout.entry_rows == 0 || m.layout.width != width ||
+      m.layout.height != height)
+    return false;
+  // The bands widened to whole MCU rows at the nearest restart markers around them, merged.
+  const int entry = m.layout.entry_rows, mcu_h = m.layout.mcu_height;
+  m.mcu_rows.clear();
+  for (const auto& [first, last] : m.bands) {
+    const int r0 = first / mcu_h / entry * entry;
+    const int r1 = std::min(((last + mcu_h - 1) / mcu_h + entry - 1) / entry * entry, m.layout.mcu_rows);
+    if (!m.mcu_rows.empty() && r0 <= m.mcu_rows.back().second) {
+      m.mcu_rows.back().second = std::max(m.mcu_rows.back().second, r1);
+    } else {
+      m.mcu_rows.emplace_back(r0, r1);
+    }
+  }
+  // Rows from the top down, as the plain path decodes them: nothing to gain.
+  if (m.mcu_rows.size() == 1 && m.mcu_rows[0].first == 0) return false;
+  if (!m.cutter.cut(jpeg, m.layout, m.mcu_rows, m.cut, m.why)) {
+    ++restart_fallbacks_;
+    return false;
+  }
+  return true;
+}
+
+bool JpegRegionDecoder::decode_cut(cv::Mat& gray, int x0, int x1) {
+  Impl& m = *impl_;
+  jpeg_decompress_struct& c = m.cinfo;
+  if (setjmp(m.err.jump) != 0) {
+    error_ = m.err.message;
+    jpeg_abort_decompress(&c);
+    return false;
+  }
+  jpeg_mem_src(&c, m.cut.data(), static_cast<unsigned long>(m.cut.size()));
+  jpeg_read_header(&c, TRUE);
+  c.out_color_space = JCS_GRAYSCALE;
+  c.dct_method = JDCT_IFAST;
+  jpeg_start_decompress(&c);
+  JDIMENSION xoff = static_cast<JDIMENSION>(x0);
+  JDIMENSION cw = static_cast<JDIMENSION>(x1 - x0);
+  if (x0 > 0 || x1 < gray.cols) jpeg_crop_scanline(&c, &xoff, &cw);
+  // The cut's rows, range after range, go back to their rows in the frame.
+  JSAMPROW rows[16];
+  for (const auto& [first, last] : m.mcu_rows) {
+    const int top = first * m.layout.mcu_height;
+    const int bottom = std::min(last * m.layout.mcu_height, gray.rows);
+    for (int y = top; y < bottom;) {
+      const int count = std::min(16, bottom - y);
+      for (int i = 0; i < count; ++i) rows[i] = gray.ptr<JSAMPLE>(y + i) + xoff;
+      y += static_cast<int>(jpeg_read_scanlines(&c, rows, static_cast<JDIMENSION>(count)));
+    }
+  }
+  jpeg_finish_decompress(&c);
+  ++entered_at_restarts_;
   return true;
 }
 

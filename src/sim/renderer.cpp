@@ -9,8 +9,6 @@
 #include <random>
 #include <tuple>
 
-#include <turbojpeg.h>
-
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -386,37 +384,6 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
     const float* a = acc.ptr<float>(y);
     for (int x = 0; x < bw; ++x) g[x] = cv::saturate_cast<std::uint8_t>(a[x] * inv);
   }
-}
-
-std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool colour) {
-  if (quality < 1 || quality > 100) throw InputError("JPEG quality must be 1..100, got " + std::to_string(quality));
-  if (gray.type() != CV_8UC1 || gray.empty()) throw std::invalid_argument("encode_jpeg: expected CV_8UC1");
-  // One compressor per thread: tjInitCompress allocates, frames come at video rate.
-  struct Handle {
-    tjhandle h = tjInitCompress();
-    ~Handle() { tjDestroy(h); }
-  };
-  thread_local Handle handle;
-  if (handle.h == nullptr) throw std::runtime_error("libjpeg-turbo: tjInitCompress failed");
-  cv::Mat src = gray;
-  int format = TJPF_GRAY;
-  int subsampling = TJSAMP_GRAY;
-  if (colour) {
-    cv::cvtColor(gray, src, cv::COLOR_GRAY2BGR);
-    format = TJPF_BGR;
-    subsampling = TJSAMP_420;
-  }
-  unsigned char* buf = nullptr;
-  unsigned long size = 0;
-  if (tjCompress2(handle.h, src.data, src.cols, static_cast<int>(src.step), src.rows, format, &buf, &size, subsampling,
-                  quality, TJFLAG_FASTDCT) != 0) {
-    const std::string err = tjGetErrorStr2(handle.h);
-    tjFree(buf);
-    throw std::runtime_error("libjpeg-turbo: " + err);
-  }
-  std::vector<std::uint8_t> out(buf, buf + size);
-  tjFree(buf);
-  return out;
 }
 
 }  // namespace ips::sim

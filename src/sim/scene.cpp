@@ -284,12 +284,13 @@ Scene Scene::load(const std::filesystem::path& path) {
   if (const YAML::Node g = root["render"]) {
     auto& s = scene.render;
     r.only_keys(g, "render.",
-                {"supersample", "noise_sigma", "jpeg_quality", "vignetting", "gradient", "exposure", "blur_samples",
-                 "white", "black", "seed"});
+                {"supersample", "noise_sigma", "jpeg_quality", "jpeg_restart_rows", "vignetting", "gradient",
+                 "exposure", "blur_samples", "white", "black", "seed"});
     s.supersample = static_cast<int>(r.integer(g, "render.", "supersample", s.supersample, 1, 8));
     s.noise_sigma = r.number(g, "render.", "noise_sigma", s.noise_sigma);
     if (s.noise_sigma < 0 || s.noise_sigma > 50) r.fail(g["noise_sigma"], "render.noise_sigma", "must be 0..50");
     s.jpeg_quality = static_cast<int>(r.integer(g, "render.", "jpeg_quality", s.jpeg_quality, 0, 100));
+    s.jpeg_restart_rows = static_cast<int>(r.integer(g, "render.", "jpeg_restart_rows", s.jpeg_restart_rows, 0, 255));
     s.vignetting = r.number(g, "render.", "vignetting", s.vignetting);
     if (s.vignetting < 0 || s.vignetting >= 1) r.fail(g["vignetting"], "render.vignetting", "must be in [0, 1)");
     s.gradient = r.number(g, "render.", "gradient", s.gradient);

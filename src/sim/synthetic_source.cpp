@@ -87,7 +87,7 @@ void SyntheticSource::render_loop() {
     r.k = k;
     renderer_.render(scene_time(frame_time_ns(k)), image, k);
     if (quality > 0) {
-      r.jpeg = encode_jpeg(image, quality, options_.colour_jpeg);
+      r.jpeg = encode_jpeg(image, quality, options_.colour_jpeg, scene_->render.jpeg_restart_rows);
     } else {
       r.gray = image.clone();
     }
@@ -184,7 +184,7 @@ FrameSource::ReadStatus SyntheticSource::read(Frame& out, std::chrono::milliseco
   const int quality = scene_->render.jpeg_quality;
   renderer_.render(scene_time(out.t_mono_ns), quality > 0 ? rendered_ : out.gray, k);
   if (quality > 0) {
-    jpeg_ = encode_jpeg(rendered_, quality, options_.colour_jpeg);
+    jpeg_ = encode_jpeg(rendered_, quality, options_.colour_jpeg, scene_->render.jpeg_restart_rows);
     if (defer_decode_) {
       out.jpeg = jpeg_;
     } else if (!decoder_.decode_gray(jpeg_, out.gray)) {

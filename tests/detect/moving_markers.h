@@ -57,6 +57,7 @@ struct Mover {
 struct Sequence {
   const CameraRenderer& r;
   std::vector<Mover> movers;
+  int restart_rows = 0;  ///< restart markers every this many MCU rows (0: none)
   // Frame f as a camera delivers it (JPEG q90 4:2:0, decoded to grey) and its truth.
   std::vector<std::uint8_t> jpeg(int f, std::vector<ips::sim::MarkerTruth>& truth) const {
     std::vector<PlacedMarker> placed;
@@ -73,7 +74,7 @@ struct Sequence {
     }
     cv::Mat gray;
     r.render_markers(placed, gray, static_cast<std::uint64_t>(f));
-    return ips::sim::encode_jpeg(gray, 90, true);
+    return ips::sim::encode_jpeg(gray, 90, true, restart_rows);
   }
   cv::Mat frame(int f, std::vector<ips::sim::MarkerTruth>& truth) const {
     ips::JpegDecoder decoder;

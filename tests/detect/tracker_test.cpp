@@ -214,12 +214,18 @@ TEST(Tracker, DisabledSearchesEveryFrameInFull) {
 }
 
 // The partial decode gives a full decode's pixels inside the ROIs, and tracking on it finds
-// what tracking on the full decode finds.
-TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
+// what tracking on the full decode finds: on frames without restart markers (rows above the
+// ROIs Huffman-decoded and skipped) and with a restart marker every MCU row or every 3 (only
+// the ROIs' rows cut out and decoded).
+class RegionDecodeRestarts : public ::testing::TestWithParam<int> {};
+
+TEST_P(RegionDecodeRestarts, RoiPixelsEqualAFullDecode) {
   const Scene scene = test_scene();
   const CameraRenderer r(scene, scene.camera_index("red"));
   const auto& C = r.camera().position;
-  Sequence seq{r, {{.id = 4, .x = C.x() - 0.3, .y = C.y(), .vx = 0.5}, {.id = 6, .x = C.x() + 0.9, .y = C.y() + 0.5}}};
+  Sequence seq{r,
+               {{.id = 4, .x = C.x() - 0.3, .y = C.y(), .vx = 0.5}, {.id = 6, .x = C.x() + 0.9, .y = C.y() + 0.5}},
+               GetParam()};
   ips::JpegDecoder full_decoder;
   ips::JpegRegionDecoder region_decoder;
   ips::DetectionTracker tracker;
@@ -240,11 +246,20 @@ TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
       ++roi_frames;
       ASSERT_EQ(plan.rois.size(), 2u);
       for (const auto& roi : plan.rois) EXPECT_EQ(cv::norm(full(roi), partial(roi), cv::NORM_INF), 0.0);
-      // Rows below the lowest ROI were not decoded at all.
-      int bottom = 0;
-      for (const auto& roi : plan.rois) bottom = std::max(bottom, roi.y + roi.height);
+      // Rows below the lowest ROI's MCU row (or its group of restart_rows MCU rows) were not
+      // decoded at all, nor, with restart markers, rows above the highest ROI's.
+      const int unit = 16 * std::max(1, GetParam());
+      int top = full.rows, bottom = 0;
+      for (const auto& roi : plan.rois) {
+        top = std::min(top, roi.y / unit * unit);
+        bottom = std::max(bottom, (roi.y + roi.height + unit - 1) / unit * unit);
+      }
       ASSERT_LT(bottom, full.rows - 16);
       EXPECT_EQ(cv::countNonZero(partial.rowRange(bottom, full.rows)), 0);
+      if (GetParam() > 0) {
+        ASSERT_GT(top, 0);
+        EXPECT_EQ(cv::countNonZero(partial.rowRange(0, top)), 0);
+      }
     }
     std::vector<ips::MarkerDetection> found;
     ASSERT_TRUE(tracker.detect(detector, partial, plan, &r.camera().model, found));
@@ -252,9 +267,15 @@ TEST(JpegRegionDecoder, RoiPixelsEqualAFullDecode) {
     expect_true_markers(found, truth, f);
   }
   EXPECT_EQ(roi_frames, 3);
+  // Which path decoded the ROI frames.
+  EXPECT_EQ(region_decoder.entered_at_restarts(), GetParam() > 0 ? 3u : 0u);
+  EXPECT_EQ(region_decoder.skipped_by_huffman(), GetParam() > 0 ? 0u : 3u);
+  EXPECT_EQ(region_decoder.restart_fallbacks(), 0u);
   const std::vector<std::uint8_t> garbage(5000, 0x55);
   EXPECT_FALSE(region_decoder.decode(garbage, partial, {}));
   EXPECT_FALSE(region_decoder.error().empty());
 }
+
+INSTANTIATE_TEST_SUITE_P(JpegRegionDecoder, RegionDecodeRestarts, ::testing::Values(0, 1, 3));
 
 }  // namespace

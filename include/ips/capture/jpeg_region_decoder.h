@@ -1,10 +1,12 @@
 // Partial MJPEG decode for tracking: only the image rows and columns that regions of
 // interest need are decoded to pixels, with libjpeg-turbo's jpeg_crop_scanline (columns,
-// widened to whole MCUs) and jpeg_skip_scanlines (rows). What remains is the entropy
-// (Huffman) decoding of the rows above the lowest ROI: a baseline JPEG without restart
-// markers cannot be entered mid-stream, so skipped rows are still Huffman-decoded (not
-// IDCT'd); rows below the lowest ROI are not decoded at all. (With restart markers every
-// few MCU rows a decoder could seek to the first ROI row instead.)
+// widened to whole MCUs) and jpeg_skip_scanlines (rows).
+//
+// Rows above a region cost what remains of a decode: a JPEG's entropy-coded (Huffman) data is
+// one bit stream, so skipped rows are still Huffman-decoded (not IDCT'd) unless the frame has
+// restart markers. Where it has (jpeg_restart.h), the MCU rows around the regions are cut out
+// at the nearest restart markers and only they are decoded: nothing above them is read. Rows
+// below the lowest region are never decoded either way.
 #pragma once
 
 #include <cstdint>
@@ -35,10 +37,21 @@ class JpegRegionDecoder {
 
   const std::string& error() const { return error_; }
 
+  /// Frames whose rows were cut out at restart markers (nothing above the regions decoded),
+  /// frames decoded by skipping rows, and frames whose restart markers were not where their
+  /// headers put them (decoded by skipping instead).
+  std::uint64_t entered_at_restarts() const { return entered_at_restarts_; }
+  std::uint64_t skipped_by_huffman() const { return skipped_by_huffman_; }
+  std::uint64_t restart_fallbacks() const { return restart_fallbacks_; }
+
  private:
+  bool plan_restart_cut(std::span<const std::uint8_t> jpeg, int width, int height);
+  bool decode_cut(cv::Mat& gray, int x0, int x1);
+
   struct Impl;
   Impl* impl_ = nullptr;
   std::string error_;
+  std::uint64_t entered_at_restarts_ = 0, skipped_by_huffman_ = 0, restart_fallbacks_ = 0;
 };
 
 }  // namespace ips

@@ -88,7 +88,9 @@ class CameraRenderer {
 
 /// JPEG-compresses a greyscale frame; `colour` stores it as a 3-channel YCbCr 4:2:0 JPEG like
 /// a USB camera's MJPEG (grey chroma), otherwise as a 1-channel JPEG. Quality 1..100.
-std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool colour);
+/// `restart_rows` > 0 puts a restart marker after every that many MCU rows, as some cameras
+/// do (a region decode can then start at any of them: capture/jpeg_restart.h); 0, none.
+std::vector<std::uint8_t> encode_jpeg(const cv::Mat& gray, int quality, bool colour, int restart_rows = 0);
 
 /// The marker's pattern: (bits+2) x (bits+2) CV_8U cells, 0 black, 1 white. Throws
 /// ips::InputError if the id is not in the dictionary.

@@ -95,16 +95,17 @@ struct Floor {
 
 /// Image formation settings shared by all cameras of the scene.
 struct RenderSettings {
-  int supersample = 3;       ///< s x s samples per pixel on marker regions (anti-aliasing)
-  double noise_sigma = 2.0;  ///< Gaussian sensor noise, grey levels
-  int jpeg_quality = 90;     ///< 1..100; 0 = deliver frames without JPEG compression
-  double vignetting = 0.35;  ///< brightness loss at the image corner (r^2 fall-off), 0..1
-  double gradient = 0.15;    ///< lighting gradient across the floor along world x, +-fraction
-  double exposure = 0.0;     ///< exposure time for motion blur, seconds (0 = sharp)
-  int blur_samples = 5;      ///< time samples across the exposure when exposure > 0
-  double white = 215.0;      ///< grey level of white marker paper at full illumination
-  double black = 30.0;       ///< grey level of the black marker ink
-  unsigned seed = 1;         ///< noise seed
+  int supersample = 3;        ///< s x s samples per pixel on marker regions (anti-aliasing)
+  double noise_sigma = 2.0;   ///< Gaussian sensor noise, grey levels
+  int jpeg_quality = 90;      ///< 1..100; 0 = deliver frames without JPEG compression
+  int jpeg_restart_rows = 0;  ///< a restart marker every this many MCU rows (as some cameras); 0 = none
+  double vignetting = 0.35;   ///< brightness loss at the image corner (r^2 fall-off), 0..1
+  double gradient = 0.15;     ///< lighting gradient across the floor along world x, +-fraction
+  double exposure = 0.0;      ///< exposure time for motion blur, seconds (0 = sharp)
+  int blur_samples = 5;       ///< time samples across the exposure when exposure > 0
+  double white = 215.0;       ///< grey level of white marker paper at full illumination
+  double black = 30.0;        ///< grey level of the black marker ink
+  unsigned seed = 1;          ///< noise seed
 };
 
 class Scene {
