@@ -44,6 +44,7 @@ void FileSourceOptions::validate() const {
   if (preload && !std::filesystem::is_directory(path))
     throw InputError("file source: 'preload' needs a directory of images, not " + path);
   if (!(fps >= 0 && fps <= 10000)) throw InputError("file source: 'fps' must be in [0, 10000]");
+  if (phase_s && !(*phase_s >= 0 && *phase_s < 1)) throw InputError("file source: 'phase' must be in [0, 1) seconds");
 }
 
 FileSource::FileSource(FileSourceOptions options) : options_(std::move(options)) { options_.validate(); }
@@ -73,7 +74,9 @@ void FileSource::open() {
     throw SourceError(describe() + ": cannot open as a video");
   }
   next_file_ = 0;
-  next_due_ns_ = monotonic_ns();
+  const std::int64_t now = monotonic_ns();
+  grid_origin_ns_ = options_.phase_s ? std::llround(*options_.phase_s * 1e9) : now;
+  next_due_ = first_due_at_or_after(now);
   open_ = true;
 }
 
@@ -132,19 +135,31 @@ bool FileSource::read_image(Frame& out, bool& corrupt) {
   return true;
 }
 
+std::int64_t FileSource::due_ns(std::int64_t k) const {
+  return grid_origin_ns_ + std::llround(static_cast<double>(k) * 1e9 / options_.fps);
+}
+
+std::int64_t FileSource::first_due_at_or_after(std::int64_t t_ns) const {
+  if (!(options_.fps > 0)) return 0;
+  auto k = static_cast<std::int64_t>(std::ceil(static_cast<double>(t_ns - grid_origin_ns_) * options_.fps * 1e-9));
+  while (due_ns(k) < t_ns) ++k;  // rounding
+  return k;
+}
+
 FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds timeout) {
   if (!open_) throw SourceError(describe() + ": read() on a closed source");
   if (options_.fps > 0) {
     const std::int64_t now = monotonic_ns();
     const std::int64_t timeout_ns = std::chrono::nanoseconds(timeout).count();
-    if (next_due_ns_ > now + timeout_ns) {
+    const std::int64_t due = due_ns(next_due_);
+    if (due > now + timeout_ns) {
       std::this_thread::sleep_for(timeout);
       return ReadStatus::kTimeout;
     }
-    if (next_due_ns_ > now) std::this_thread::sleep_for(std::chrono::nanoseconds(next_due_ns_ - now));
-    const auto period = static_cast<std::int64_t>(std::llround(1e9 / options_.fps));
-    // A caller that fell behind gets at most one overdue frame at once, not a burst.
-    next_due_ns_ = std::max(next_due_ns_ + period, monotonic_ns());
+    if (due > now) std::this_thread::sleep_for(std::chrono::nanoseconds(due - now));
+    // A caller that fell behind gets at most one overdue frame at once, not a burst, and the
+    // next one on the grid.
+    next_due_ = std::max(next_due_ + 1, first_due_at_or_after(monotonic_ns()));
   }
   if (out.gray.u != nullptr && out.gray.u->refcount > 1) out.gray.release();
   out.jpeg.clear();

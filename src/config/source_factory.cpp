@@ -57,6 +57,8 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
     case SourceKind::kFile: {
       FileSourceOptions o = c.file;
       o.fps = c.fps;
+      // A phase puts the camera on the clock's grid; none (0), on its own from when it opens.
+      if (c.phase_s > 0) o.phase_s = c.phase_s;
       try {
         o.validate();
       } catch (const InputError& e) {

@@ -98,6 +98,31 @@ TEST(FileSource, ReturnsTimeoutWhenTheNextFrameIsNotDue) {
   EXPECT_EQ(source.read(f, milliseconds(5)), Status::kTimeout);
 }
 
+// With a phase, frames are due on the monotonic clock's grid phase + k / fps (unsynchronised
+// file cameras): read as soon as due, each frame comes just after a grid point (within 50 ms:
+// a margin for a busy machine; without the phase the offset would be anywhere in the 100 ms
+// period) and consecutive frames in consecutive periods.
+TEST(FileSource, PhasePutsFramesOnTheClocksGrid) {
+  ips::test::TempDir dir;
+  cv::imwrite(dir / "0.png", flat(10));
+  ips::FileSourceOptions o{dir.str(), 10.0, true};
+  o.phase_s = 0.037;
+  ips::FileSource source(o);
+  source.open();
+  constexpr std::int64_t kPeriod = 100'000'000, kPhase = 37'000'000;
+  ips::Frame f;
+  std::int64_t previous_point = -1;
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_EQ(source.read(f, milliseconds(500)), Status::kFrame);
+    const std::int64_t point = (f.t_mono_ns - kPhase) / kPeriod * kPeriod + kPhase;  // the grid point at or before
+    EXPECT_LT(f.t_mono_ns - point, kPeriod / 2) << "frame " << k;
+    if (previous_point >= 0) EXPECT_EQ(point - previous_point, kPeriod) << "frame " << k;
+    previous_point = point;
+  }
+  o.phase_s = 1.0;
+  EXPECT_THROW(ips::FileSource{o}, ips::InputError);
+}
+
 TEST(FileSource, VideoFileLoops) {
   ips::test::TempDir dir;
   const std::string video = dir / "clip.avi";

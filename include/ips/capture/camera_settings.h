@@ -34,7 +34,8 @@ struct CameraConfig {
   /// unset = one frame period. (An optional, not a NaN: NaN != NaN would make every reload see
   /// "changed cameras" and restart the camera threads.)
   std::optional<double> transport_delay_s;
-  /// synthetic: frame k is captured at scene time phase + k / fps, s (unsynchronised cameras)
+  /// synthetic: frame k is captured at scene time phase + k / fps; file: a phase > 0 puts
+  /// its frames at phase + k / fps on the monotonic clock; s (unsynchronised cameras)
   double phase_s = 0.0;
   // every source
   /// Frames per second requested (v4l2) or paced (file, synthetic): cameras[].fps, copied into

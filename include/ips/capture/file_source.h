@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,12 @@ struct FileSourceOptions {
   /// MJPEG frame is decoded; other formats with OpenCV): what a real camera costs the daemon,
   /// without disk reads. Memory: the files' total size.
   bool preload = false;
+  /// Frames are due on a grid, origin + k / fps: the origin is `phase_s` of the monotonic
+  /// clock (0 <= phase < 1 s) when given, else the moment the source opens. File cameras with
+  /// different phases deliver apart, as unsynchronised cameras do; the same phase, at once. A
+  /// reader that falls behind gets the overdue frame at once and the next one on the grid
+  /// again (the phase holds; frames are never skipped).
+  std::optional<double> phase_s;
 
   /// Throws ips::InputError naming the offending field.
   void validate() const;
@@ -65,7 +72,10 @@ class FileSource : public FrameSource {
   cv::VideoCapture video_;
   cv::Mat decoded_;
   std::uint64_t sequence_ = 0;
-  std::int64_t next_due_ns_ = 0;  // CLOCK_MONOTONIC
+  std::int64_t due_ns(std::int64_t k) const;  ///< grid point k, CLOCK_MONOTONIC
+  std::int64_t first_due_at_or_after(std::int64_t t_ns) const;
+  std::int64_t next_due_ = 0;        // index of the next frame's grid point
+  std::int64_t grid_origin_ns_ = 0;  // CLOCK_MONOTONIC
   bool defer_decode_ = false;
 };
 
