@@ -126,7 +126,13 @@ void CameraWorker::process(ips::Frame& frame) {
   // The web view's camera image needs the whole frame: decoded whole only while a page asks.
   const bool watched = tap_ && tap_->wanted();
   std::vector<ips::MarkerDetection> detections;
-  if (!detector_->detect(frame, &intrinsics, watched, detections)) {
+  const ips::TrackedFrameDetector::DecodeCounters decoded = detector_->decode_counters();
+  const bool ok = detector_->detect(frame, &intrinsics, watched, detections);
+  // Whether the camera's frames carry restart markers (they make region decodes cheap).
+  const auto& now = detector_->decode_counters();
+  if (now.regions > decoded.regions) stats_.restart_markers = now.restart_cuts > decoded.restart_cuts;
+  stats_.restart_damaged += now.restart_damaged - decoded.restart_damaged;
+  if (!ok) {
     if (stats_.corrupt++ == 0)
       spdlog::warn("{}: {}; such frames are skipped and counted", config_.name, detector_->error());
     return;
@@ -146,6 +152,14 @@ void CameraWorker::process(ips::Frame& frame) {
   stats_.markers += batch.observations.size() + batch.bodies.size();
   ++stats_.frames;
   queue_.push(std::move(batch));
+  // A periodic search for new markers runs after the frame's markers went out: its cost is
+  // not in their latency. What it finds is tracked (and published) from the next frame on.
+  if (detector_->acquisition_pending()) {
+    const std::int64_t t1 = ips::monotonic_ns();
+    if (!detector_->acquire(frame, &intrinsics) && stats_.corrupt++ == 0)
+      spdlog::warn("{}: {}; such frames are skipped and counted", config_.name, detector_->error());
+    stats_.acquire_ns += static_cast<std::uint64_t>(ips::monotonic_ns() - t1);
+  }
 }
 
 void CameraWorker::observe(const Runtime& rt, const ips::MarkerDetection& d, const ips::Frame& frame,

@@ -93,10 +93,14 @@ struct CameraStats {
   std::atomic<std::uint64_t> frames{0};  ///< frames processed
   /// frames not processed: skipped or replaced to stay on the newest, over budget, source sequence gaps
   std::atomic<std::uint64_t> drops{0};
-  std::atomic<std::uint64_t> corrupt{0};        ///< undecodable frames
-  std::atomic<std::uint64_t> failures{0};       ///< source failures (open errors, unplug, end)
-  std::atomic<std::uint64_t> detect_ns{0};      ///< sum of detect+locate+map time
-  std::atomic<std::uint64_t> queue_ns{0};       ///< sum of the waits delivery -> a worker starts the frame
+  std::atomic<std::uint64_t> corrupt{0};     ///< undecodable frames
+  std::atomic<std::uint64_t> failures{0};    ///< source failures (open errors, unplug, end)
+  std::atomic<std::uint64_t> detect_ns{0};   ///< sum of detect+locate+map time
+  std::atomic<std::uint64_t> acquire_ns{0};  ///< sum of the searches for new markers after publishing
+  std::atomic<std::uint64_t> queue_ns{0};    ///< sum of the waits delivery -> a worker starts the frame
+  std::atomic<bool> restart_markers{false};  ///< the last region-decoded frame was cut at restart markers
+  std::atomic<std::uint64_t> restart_damaged{
+      0};                                       ///< frames whose restart markers were misplaced (decoded the slow way)
   std::atomic<std::uint64_t> over_budget{0};    ///< frames dropped unprocessed: they waited a whole budget (in drops)
   std::atomic<std::uint64_t> markers{0};        ///< sum of markers mapped
   std::atomic<std::uint64_t> no_height{0};      ///< markers dropped: the mapper needs a height, none configured

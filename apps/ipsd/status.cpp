@@ -36,12 +36,15 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
     r.frames = frames;
     r.detect_ns_total = detect_ns;
     r.queue_ns_total = queue_ns;
+    r.acquire_ns_total = s.acquire_ns;
     r.markers_total = markers;
     r.drops = s.drops;
     r.corrupt = s.corrupt;
     r.failures = s.failures;
     r.no_height = s.no_height;
     r.over_budget = s.over_budget;
+    r.restart_markers = s.restart_markers;
+    r.restart_damaged = s.restart_damaged;
     r.body_rejected = s.body_rejected;
     const int state = s.state;
     r.state = state == static_cast<int>(CameraState::kOpen)   ? "open"
@@ -64,6 +67,8 @@ std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fus
         "{}: {:.1f} fps, queue {:.1f} ms, detect {:.1f} ms, {:.1f} markers, drops {}, corrupt {}, errors {}, {}",
         c.name, c.fps, c.queue_ms, c.detect_ms, c.markers, c.drops, c.corrupt, c.failures, c.state);
     if (c.over_budget) line += fmt::format(", {} over budget", c.over_budget);
+    if (c.restart_markers) line += ", restart markers";
+    if (c.restart_damaged) line += fmt::format(", {} with misplaced restart markers", c.restart_damaged);
     if (c.no_height) line += fmt::format(", {} without height", c.no_height);
     if (c.body_rejected) line += fmt::format(", {} body views rejected", c.body_rejected);
     if (c.state != "open" && !c.last_error.empty()) line += " (" + c.last_error + ")";
@@ -134,6 +139,8 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
                             {"frames", c.frames},
                             {"drops", c.drops},
                             {"over_budget", c.over_budget},
+                            {"restart_markers", c.restart_markers},
+                            {"restart_damaged", c.restart_damaged},
                             {"corrupt", c.corrupt},
                             {"errors", c.failures},
                             {"no_height", c.no_height},
@@ -141,6 +148,7 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
                             {"last_error", c.last_error},
                             {"detect_s_total", 1e-9 * static_cast<double>(c.detect_ns_total)},
                             {"queue_s_total", 1e-9 * static_cast<double>(c.queue_ns_total)},
+                            {"acquire_s_total", 1e-9 * static_cast<double>(c.acquire_ns_total)},
                             {"markers_total", c.markers_total}});
   }
   j["outputs"] = nlohmann::json::array();

@@ -23,9 +23,12 @@ struct CameraRates {
   double queue_ms = 0;   ///< mean wait from delivery until a worker started the frame, ms
   double markers = 0;    ///< mean markers per frame
   std::uint64_t frames = 0, drops = 0, corrupt = 0, failures = 0, no_height = 0;
-  std::uint64_t over_budget = 0;    ///< frames dropped unprocessed after waiting a whole budget (in drops)
-  std::uint64_t body_rejected = 0;  ///< body markers whose view gave no body observation (docs/bodies.md)
+  bool restart_markers = false;       ///< frames carry restart markers (region decodes cut at them)
+  std::uint64_t restart_damaged = 0;  ///< frames whose restart markers were misplaced
+  std::uint64_t over_budget = 0;      ///< frames dropped unprocessed after waiting a whole budget (in drops)
+  std::uint64_t body_rejected = 0;    ///< body markers whose view gave no body observation (docs/bodies.md)
   std::uint64_t detect_ns_total = 0, queue_ns_total = 0, markers_total = 0;  ///< since start
+  std::uint64_t acquire_ns_total = 0;  ///< searches for new markers after publishing, since start
 };
 
 /// Samples counters at each call and turns the differences into rates.

@@ -85,7 +85,13 @@ cv::Rect DetectionTracker::roi_of(const Track& t, cv::Size image) const {
 
 TrackPlan DetectionTracker::plan(cv::Size image) const {
   TrackPlan p;
-  if (!options_.enabled || force_full_ || (frame_ + phase_) % options_.full_search_period == 0) return p;
+  if (!options_.enabled || force_full_) return p;
+  if ((frame_ + phase_) % options_.full_search_period == 0) {
+    // A search on every frame is just that. Otherwise the tracked markers (none, in an empty
+    // view: the frame then needs no pixel) go out before the search for new ones.
+    if (options_.full_search_period == 1) return p;
+    p.acquire = true;
+  }
   p.full = false;
   for (const auto& t : tracks_) {
     const cv::Rect r = roi_of(t, image);
@@ -155,8 +161,10 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
     ++counters_.roi_searches;
     for (const auto& d : detector.detect(gray, plan.rois[i], camera)) add(d);
   }
-  // Every tracked marker must be found again near its prediction; otherwise the frame is
-  // searched in full (the caller decodes it whole if it decoded only the ROIs).
+  // Every tracked marker should be found again near its prediction; one that is not (it
+  // jumped, was covered, left the view) ends its track, and the frame is to be searched whole
+  // after (acquire(): the caller decodes it whole if it decoded only the ROIs).
+  bool lost = false;
   std::vector<bool> used(out.size(), false);
   for (const auto& t : tracks_) {
     const auto elapsed = static_cast<double>(frame_ - t.frame);
@@ -170,21 +178,45 @@ bool DetectionTracker::detect(Detector& detector, const cv::Mat& gray, const Tra
         used[i] = found = true;
       }
     }
-    if (!found) {
-      out.clear();
-      ++counters_.fallbacks;
-      force_full_ = true;
-      return false;
-    }
+    lost = lost || !found;
   }
+  if (lost) ++counters_.fallbacks;
   update(out, false);
-  return true;
+  return !lost;
+}
+
+std::vector<MarkerDetection> DetectionTracker::acquire(Detector& detector, const cv::Mat& gray,
+                                                       const CameraModel* camera) {
+  ++counters_.full_searches;
+  ++counters_.acquisitions;
+  std::vector<MarkerDetection> fresh;
+  // detect() has moved on to the next frame: the tracks hold this frame's sightings.
+  const std::int64_t frame = frame_ - 1;
+  const std::size_t tracked = tracks_.size();
+  for (const auto& d : detector.detect(gray, camera)) {
+    const Point2 c = centre(d);
+    const bool known =
+        std::any_of(tracks_.begin(), tracks_.begin() + static_cast<std::ptrdiff_t>(tracked), [&](const Track& t) {
+          const Point2 ct = centre(t.last);
+          return t.frame == frame && t.last.id == d.id && std::hypot(ct.x - c.x, ct.y - c.y) < 0.5 * side(d);
+        });
+    if (known) continue;
+    Track t;
+    t.last = d;
+    t.frame = frame;
+    tracks_.push_back(t);
+    fresh.push_back(d);
+  }
+  counters_.acquired += fresh.size();
+  return fresh;
 }
 
 std::vector<MarkerDetection> DetectionTracker::track(Detector& detector, const cv::Mat& gray,
                                                      const CameraModel* camera) {
   std::vector<MarkerDetection> out;
-  if (!detect(detector, gray, plan(gray.size()), camera, out)) detect(detector, gray, TrackPlan{}, camera, out);
+  const TrackPlan p = plan(gray.size());
+  if (!detect(detector, gray, p, camera, out) || p.acquire)
+    for (auto& d : acquire(detector, gray, camera)) out.push_back(std::move(d));
   return out;
 }
 

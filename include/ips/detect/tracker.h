@@ -5,7 +5,11 @@
 //   - a full-frame search (Detector::detect on the whole image) runs on every
 //     `full_search_period`-th frame (the phase is spread over the cameras so they do not all
 //     search on the same frame), also when nothing is tracked (an empty view costs a full
-//     search per period, not per frame);
+//     search per period, not per frame). That periodic search is an *acquisition*: the frame
+//     is first tracked as any other (its markers, if any, can be published at once), and the
+//     whole-frame search for markers not yet tracked runs after (acquire()): the markers it
+//     finds are tracked from the next frame on. Only the first frame and the frame after a
+//     reset() are searched in full before anything is reported;
 //   - on the other frames each tracked marker's corners are predicted (last corners + image
 //     velocity per frame, measured between its last two sightings) and refined from there
 //     by the full search's edge refinement, read and verified as the full search does
@@ -13,13 +17,15 @@
 //     run in a rectangle a few marker sides around the prediction, with the same candidate
 //     search, refinement and verification as the full search (the ROI entry point of
 //     Detector); either way a tracked marker has the corners the full search would give it;
-//   - a tracked marker not found in its ROI (fast motion, occlusion, left the view) makes the
-//     same frame fall back to a full search at once; markers the full search does not find
-//     either are forgotten.
+//   - a tracked marker not found in its ROI (fast motion, occlusion, left the view) ends its
+//     track, and the same frame is searched whole after its other markers (the fallback, an
+//     acquisition as above): a marker that jumped is found again there and reported from the
+//     next frame on (track(): in the same frame).
 // Guarantee: a marker that becomes findable (enters the view, is uncovered) while others are
-// tracked is acquired at the latest on the next full search: within `full_search_period`
-// frames of the first frame it appears in (counting that frame); sooner if it appears inside
-// an ROI that is searched.
+// tracked is acquired at the latest on the next periodic search: within `full_search_period`
+// frames of the first frame it appears in (counting that frame), and reported from the frame
+// after (track() reports it in the same frame); sooner if it appears inside an ROI that is
+// searched.
 #pragma once
 
 #include <cstdint>
@@ -52,6 +58,8 @@ struct TrackerOptions {
 struct TrackPlan {
   bool full = true;            ///< the whole image
   std::vector<cv::Rect> rois;  ///< otherwise these rectangles (clipped, 16-px aligned; may overlap)
+  /// After the ROIs, acquire() on the whole image (a periodic search while markers are tracked).
+  bool acquire = false;
 };
 
 class DetectionTracker {
@@ -64,13 +72,21 @@ class DetectionTracker {
   TrackPlan plan(cv::Size image) const;
 
   /// Runs `plan` with `detector` on `gray` (for an ROI plan only the ROIs' pixels need to be
-  /// valid: a partial JPEG decode is enough). Returns false, without detections and without
-  /// changing the tracks, when a tracked marker was not found in its ROI: the caller then runs
-  /// the same frame again with a full plan (TrackPlan{}) on the whole image.
+  /// valid: a partial JPEG decode is enough). Returns false when a tracked marker was not found
+  /// near its prediction: `out` holds the markers that were, their tracks go on, the lost
+  /// one's ends, and the caller should call acquire() on the same frame decoded whole (which
+  /// finds the lost marker wherever it is now).
   bool detect(Detector& detector, const cv::Mat& gray, const TrackPlan& plan, const CameraModel* camera,
               std::vector<MarkerDetection>& out);
 
-  /// plan() + detect() + the fallback, for a fully decoded frame.
+  /// After detect() with a plan that says `acquire`, or one that returned false, on the same
+  /// frame decoded whole:
+  /// searches the whole image and starts tracking the markers found that are not tracked yet
+  /// (they are predicted from the next frame on). Returns those new markers.
+  std::vector<MarkerDetection> acquire(Detector& detector, const cv::Mat& gray, const CameraModel* camera);
+
+  /// plan() + detect() + acquire() when due, for a fully decoded frame; the markers acquire()
+  /// finds are in the result too.
   std::vector<MarkerDetection> track(Detector& detector, const cv::Mat& gray, const CameraModel* camera);
 
   /// Forgets every track (e.g. the source was reopened); the next frame is a full search.
@@ -81,7 +97,9 @@ class DetectionTracker {
   struct Counters {
     std::uint64_t frames = 0;         ///< frames processed
     std::uint64_t full_searches = 0;  ///< of which searched in full (periodic or fallback)
-    std::uint64_t fallbacks = 0;      ///< of which because a tracked marker left its ROI
+    std::uint64_t acquisitions = 0;   ///< whole-frame searches after tracking the frame (acquire())
+    std::uint64_t acquired = 0;       ///< markers acquire() started tracking
+    std::uint64_t fallbacks = 0;      ///< frames whose tracked marker was not found near its prediction
     std::uint64_t predicted = 0;      ///< markers found from their predicted corners alone
     std::uint64_t roi_searches = 0;   ///< ROIs searched (a tracked marker not found so)
   };
