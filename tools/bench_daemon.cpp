@@ -14,16 +14,22 @@
 //     one core; the daemon's total without the simulator; the machine's idle CPU (left over);
 //   - per camera: frames per second, queue ms (delivery -> a worker starts it) and detect ms per
 //     frame, markers per frame, drops and frames over budget.
-// Usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--workers N] [--ipsd PATH] [--ips PATH]
+// Usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--workers N] [--replay --cameras N
+//        [--restart-rows R] [--aligned]] [--ipsd PATH] [--ips PATH]
 //   --workers: processing.workers in the daemon's config (default: one per core).
 //   --tracking: detection.tracking in the daemon's config (default: the daemon's default, on).
 //   --replay --cameras N: instead of synthetic cameras, N file cameras replaying pre-rendered
-//   1080p JPEG frames of the published lab (3 s rendered once by `ips sim render`, looped)
+//   1080p JPEG frames of the published lab (3 s rendered once by `ips sim render`, played
+//   forwards and backwards in a loop, so that the markers never jump)
 //   from memory (cameras[].preload): a real camera's cost to the daemon, without rendering.
 //   Camera k replays the view of red/white/black (k mod 3) under its own name, with that
 //   camera's model entry. A file source delivers a frame when it is read (no transport delay)
 //   and never skips one: a daemon that cannot keep up shows as fps below the target (the
 //   "shortfall"), not as drops.
+//   Their phases are spread evenly over a frame period, as unsynchronised cameras' are likely
+//   to be (--aligned: all deliver at the same instant, the worst case for the tail).
+//   --restart-rows N: the replayed frames carry a restart marker every N MCU rows, as some
+//   cameras' MJPEG does (region decodes then cut the rows they need out of the stream).
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -122,13 +128,15 @@ int main(int argc, char** argv) {
   int workers = 0;       // processing.workers; 0 = the daemon's default (one per core)
   bool replay = false;
   int n_cameras = 3;
+  int restart_rows = 0;  // --restart-rows: restart markers in the replayed frames
+  bool aligned = false;  // --aligned: every replayed camera delivers at the same instant
   const fs::path self = fs::read_symlink("/proc/self/exe");
   fs::path ipsd = self.parent_path().parent_path() / "ipsd";
   fs::path ips = self.parent_path().parent_path() / "ips";
   for (int i = 1; i < argc; i += 2) {
     std::string a = argv[i];
-    if (a == "--replay") {
-      replay = true;
+    if (a == "--replay" || a == "--aligned") {
+      (a == "--replay" ? replay : aligned) = true;
       --i;
       continue;
     }
@@ -145,12 +153,15 @@ int main(int argc, char** argv) {
       ips = argv[i + 1];
     else if (a == "--workers")
       workers = std::stoi(argv[i + 1]);
+    else if (a == "--restart-rows")
+      restart_rows = std::stoi(argv[i + 1]);
     else if (a == "--tracking" && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off"))
       tracking = argv[i + 1];
     else {
       std::fprintf(
           stderr,
-          "usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--workers N] [--replay --cameras N] "
+          "usage: bench_daemon [--seconds S] [--fps F] [--tracking on|off] [--workers N] [--replay --cameras N "
+          "[--restart-rows R] [--aligned]] "
           "[--ipsd PATH] [--ips PATH]\n");
       return 2;
     }
@@ -183,7 +194,8 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     const fs::path frames = dir / "frames";
     if (run({ips.string(), "sim", "render", "--scene", scene.string(), "--out", frames.string(), "--frames",
-             std::to_string(static_cast<int>(3 * fps)), "--fps", std::to_string(fps)},
+             std::to_string(static_cast<int>(3 * fps)), "--fps", std::to_string(fps), "--jpeg-restart-rows",
+             std::to_string(restart_rows)},
             log) != 0) {
       std::fprintf(stderr, "bench_daemon: rendering failed, see %s\n", log.c_str());
       return 1;
@@ -194,6 +206,19 @@ int main(int argc, char** argv) {
       for (const char* b : bases)
         if (f.rfind(std::string(b) + "_", 0) == 0 && e.path().extension() == ".jpg")
           fs::rename(e.path(), frames / b / f);
+    }
+    // Played forwards then backwards (links to the same files), so that the loop has no jump: a
+    // jump would make every tracked marker leave its ROI once per loop and fall back to a full
+    // search in the frame's latency (1 frame in 90, enough to set the p99).
+    for (const char* b : bases) {
+      std::vector<fs::path> files;
+      for (const auto& e : fs::directory_iterator(frames / b)) files.push_back(e.path());
+      std::sort(files.begin(), files.end());
+      for (std::size_t i = files.size() - 1, k = 0; i-- > 1; ++k) {
+        char name[32];
+        std::snprintf(name, sizeof name, "zz_back_%04zu.jpg", k);
+        fs::create_symlink(files[i], frames / b / name);
+      }
     }
     // Every replayed camera maps with the model entry of the camera whose view it replays.
     nlohmann::json model;
@@ -211,8 +236,11 @@ int main(int argc, char** argv) {
   if (replay) {
     for (int k = 0; k < n_cameras; ++k) {
       const std::string b = bases[k % 3];
+      // Unsynchronised cameras: capture phases spread evenly over a frame period (--aligned: all
+      // at once, the worst case for the tail).
+      const double phase = aligned ? 0.0 : k / (n_cameras * fps);
       cameras << "  - {name: " << camera_name(k) << ", source: file, path: " << (dir / "frames" / b).string()
-              << ", fps: " << fps << ", preload: true, intrinsics: " << IPS_SOURCE_DIR
+              << ", fps: " << fps << ", phase: " << phase << ", preload: true, intrinsics: " << IPS_SOURCE_DIR
               << "/calib_data/ou2023/intrinsics_" << b << ".yaml}\n";
     }
   } else {
