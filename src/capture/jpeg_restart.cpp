@@ -24,8 +24,15 @@ const char* unsupported_frame(std::uint8_t code) {
   switch (code) {
     case 0xC2: return "progressive";
     case 0xC3: return "lossless";
-    case 0xC5: case 0xC6: case 0xC7: return "hierarchical";
-    case 0xC9: case 0xCA: case 0xCB: case 0xCD: case 0xCE: case 0xCF: return "arithmetic-coded";
+    case 0xC5:
+    case 0xC6:
+    case 0xC7: return "hierarchical";
+    case 0xC9:
+    case 0xCA:
+    case 0xCB:
+    case 0xCD:
+    case 0xCE:
+    case 0xCF: return "arithmetic-coded";
     default: return nullptr;
   }
 }
@@ -48,7 +55,8 @@ bool read_jpeg_restart_layout(std::span<const std::uint8_t> jpeg, JpegRestartLay
       return fail(why, "a stray marker in the headers at byte " + std::to_string(p - 1));
     if (p + 2 > n) return fail(why, "the headers end early");
     const std::size_t length = (std::size_t{jpeg[p]} << 8) | jpeg[p + 1];
-    if (length < 2 || p + length > n) return fail(why, "a header segment runs past the end at byte " + std::to_string(p));
+    if (length < 2 || p + length > n)
+      return fail(why, "a header segment runs past the end at byte " + std::to_string(p));
     const std::uint8_t* s = jpeg.data() + p + 2;
     const std::size_t size = length - 2;
     if (const char* kind = unsupported_frame(code)) return fail(why, std::string(kind) + " JPEG");

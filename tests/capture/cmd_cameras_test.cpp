@@ -4,6 +4,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "emu_control.h"
 #include "emu_harness.h"
 
@@ -61,6 +64,44 @@ TEST(IpsCameras, ListsDevicesFormatsSizesRatesAndByIdLinks) {
   // video10 is listed after video1 (numeric order) and is not a V4L2 device.
   EXPECT_GT(out.find(dir / "dev/video10: cannot query: not a V4L2 device"), out.find(expected_b)) << out;
   EXPECT_NE(out.find("2 capture device(s)"), std::string::npos) << out;
+}
+
+// --probe reads one MJPEG frame from each camera: with a restart marker every MCU row (40
+// MCUs of 16 x 16 px in a 640-px 4:2:0 row), without, and a camera with no MJPEG at all.
+TEST(IpsCameras, ProbeSaysWhetherFramesCarryRestartMarkers) {
+  ips::test::TempDir dir;
+  fs::create_directories(dir / "dev");
+  for (const char* node : {"video0", "video1", "video2"}) std::ofstream(dir / ("dev/" + std::string(node)));
+  cv::Mat card(480, 640, CV_8UC3);
+  cv::randu(card, 0, 255);
+  for (const auto& [name, interval] : {std::pair{"rst", 40}, std::pair{"plain", 0}}) {
+    fs::create_directories(dir / name);
+    std::vector<std::uint8_t> jpeg;
+    cv::imencode(".jpg", card, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80, cv::IMWRITE_JPEG_RST_INTERVAL, interval});
+    std::ofstream(dir / name + "/0.jpg", std::ios::binary)
+        .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
+  }
+  ips::test::write_emu_control(dir / "a.conf",
+                               {{"formats", "MJPG"}, {"sizes", "640x480"}, {"fps", "30"}, {"frames", dir / "rst"}});
+  ips::test::write_emu_control(dir / "b.conf",
+                               {{"formats", "MJPG"}, {"sizes", "640x480"}, {"fps", "30"}, {"frames", dir / "plain"}});
+  ips::test::write_emu_control(dir / "c.conf", {{"formats", "YUYV"}, {"sizes", "640x480"}, {"fps", "30"}});
+  const auto r = ips::test::run_emulated({IPS_TOOL, "cameras", "--dev-dir", dir / "dev", "--probe"},
+                                         {{dir / "dev/video0", dir / "a.conf"},
+                                          {dir / "dev/video1", dir / "b.conf"},
+                                          {dir / "dev/video2", dir / "c.conf"}},
+                                         dir.str());
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const auto a = r.out.find(dir / "dev/video0:"), b = r.out.find(dir / "dev/video1:"),
+             c = r.out.find(dir / "dev/video2:");
+  ASSERT_TRUE(a != std::string::npos && b != std::string::npos && c != std::string::npos) << r.out;
+  const auto rst = r.out.find(
+      "  restart markers: every 40 MCUs in a 640x480 frame (a region decode can start every 1 MCU row(s), 16 px)");
+  const auto none = r.out.find("  restart markers: none in a 640x480 frame");
+  const auto na = r.out.find("  restart markers: no MJPEG format: not applicable");
+  EXPECT_TRUE(rst > a && rst < b) << r.out;
+  EXPECT_TRUE(none > b && none < c) << r.out;
+  EXPECT_TRUE(na > c && na != std::string::npos) << r.out;
 }
 
 TEST(IpsCameras, SaysSoWhenThereIsNoCamera) {
