@@ -200,6 +200,14 @@ bool JpegRegionDecoder::decode_cut(cv::Mat& gray, int x0, int x1) {
   c.out_color_space = JCS_GRAYSCALE;
   c.dct_method = JDCT_IFAST;
   jpeg_start_decompress(&c);
+  int rows_cut = 0;
+  for (const auto& [first, last] : m.mcu_rows)
+    rows_cut += std::min(last * m.layout.mcu_height, gray.rows) - first * m.layout.mcu_height;
+  if (static_cast<int>(c.output_width) != gray.cols || static_cast<int>(c.output_height) != rows_cut) {
+    error_ = "the rows cut at restart markers do not decode to their size";
+    jpeg_abort_decompress(&c);
+    return false;
+  }
   JDIMENSION xoff = static_cast<JDIMENSION>(x0);
   JDIMENSION cw = static_cast<JDIMENSION>(x1 - x0);
   if (x0 > 0 || x1 < gray.cols) jpeg_crop_scanline(&c, &xoff, &cw);
