@@ -131,7 +131,13 @@ void CameraWorker::process(ips::Frame& frame) {
   // Whether the camera's frames carry restart markers (they make region decodes cheap).
   const auto& now = detector_->decode_counters();
   if (now.regions > decoded.regions) stats_.restart_markers = now.restart_cuts > decoded.restart_cuts;
-  stats_.restart_damaged += now.restart_damaged - decoded.restart_damaged;
+  const std::uint64_t damaged = now.restart_damaged - decoded.restart_damaged;
+  if (damaged > 0 && stats_.restart_damaged == 0)
+    spdlog::warn(
+        "{}: a frame's restart markers are not where its header puts them ({}); such frames are decoded "
+        "without them and counted (restart_damaged)",
+        config_.name, detector_->restart_problem());
+  stats_.restart_damaged += damaged;
   if (!ok) {
     if (stats_.corrupt++ == 0)
       spdlog::warn("{}: {}; such frames are skipped and counted", config_.name, detector_->error());

@@ -1,43 +1,17 @@
 #include "ips/capture/jpeg_region_decoder.h"
 
 #include <algorithm>
-#include <csetjmp>
-#include <cstdio>
 #include <stdexcept>
 #include <utility>
 
 #include "ips/capture/jpeg_restart.h"
-
-// jpeglib.h needs FILE and size_t declared first.
-#include <jpeglib.h>
+#include "ips/capture/libjpeg_errors.h"
 
 namespace ips {
 
-namespace {
-
-struct ErrorManager {
-  jpeg_error_mgr pub;
-  std::jmp_buf jump;
-  char message[JMSG_LENGTH_MAX];
-};
-
-[[noreturn]] void on_error(j_common_ptr cinfo) {
-  auto* e = reinterpret_cast<ErrorManager*>(cinfo->err);
-  (*cinfo->err->format_message)(cinfo, e->message);
-  std::longjmp(e->jump, 1);
-}
-
-// Warnings (a truncated or damaged stream) are errors, as in JpegDecoder: a half-decoded
-// frame must not reach the detector. Trace messages (level > 0) are ignored.
-void on_message(j_common_ptr cinfo, int level) {
-  if (level < 0) on_error(cinfo);
-}
-
-}  // namespace
-
 struct JpegRegionDecoder::Impl {
   jpeg_decompress_struct cinfo{};
-  ErrorManager err{};
+  LibjpegErrors err{};
   std::vector<std::pair<int, int>> bands;  // [first, last) rows to decode
   // The restart-marker path (reused frame to frame): the frame's layout, the MCU rows to cut
   // out of it, and the cut.
@@ -45,13 +19,12 @@ struct JpegRegionDecoder::Impl {
   std::vector<std::pair<int, int>> mcu_rows;
   JpegRowCutter cutter;
   std::vector<std::uint8_t> cut;
-  std::string why;
+  std::string why;  // why the last layout or cut was refused (restart_problem())
 };
 
 JpegRegionDecoder::JpegRegionDecoder() : impl_(new Impl) {
-  impl_->cinfo.err = jpeg_std_error(&impl_->err.pub);
-  impl_->err.pub.error_exit = on_error;
-  impl_->err.pub.emit_message = on_message;
+  // Warnings are errors, as in JpegDecoder: a half-decoded frame must not reach the detector.
+  impl_->cinfo.err = install_libjpeg_errors(impl_->err, true);
   if (setjmp(impl_->err.jump) != 0) {
     delete impl_;
     throw std::runtime_error("libjpeg: jpeg_create_decompress failed");
@@ -160,6 +133,8 @@ bool JpegRegionDecoder::decode(std::span<const std::uint8_t> jpeg, cv::Mat& gray
   }
   return true;
 }
+
+const std::string& JpegRegionDecoder::restart_problem() const { return impl_->why; }
 
 bool JpegRegionDecoder::plan_restart_cut(std::span<const std::uint8_t> jpeg, int width, int height) {
   Impl& m = *impl_;

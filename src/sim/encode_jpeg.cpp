@@ -1,17 +1,15 @@
 // JPEG compression of rendered frames: as a camera's MJPEG (YCbCr 4:2:0) or as a greyscale JPEG,
 // optionally with restart markers.
-#include <csetjmp>
 #include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
 
 #include <turbojpeg.h>
-// jpeglib.h needs FILE and size_t declared first.
-#include <jpeglib.h>
 
 #include <opencv2/imgproc.hpp>
 
+#include "ips/capture/libjpeg_errors.h"
 #include "ips/core/error.h"
 #include "ips/sim/renderer.h"
 
@@ -21,27 +19,14 @@ namespace {
 // TurboJPEG 2 (Debian 12) has no restart setting: frames with restart markers go through the
 // libjpeg API with the same choices as tjCompress2 (standard tables scaled by quality, 4:2:0,
 // the fast integer DCT).
-struct CompressError {
-  jpeg_error_mgr pub;
-  std::jmp_buf jump;
-  char message[JMSG_LENGTH_MAX];
-};
-
-[[noreturn]] void on_compress_error(j_common_ptr cinfo) {
-  auto* e = reinterpret_cast<CompressError*>(cinfo->err);
-  (*cinfo->err->format_message)(cinfo, e->message);
-  std::longjmp(e->jump, 1);
-}
-
 std::vector<std::uint8_t> encode_with_restarts(const cv::Mat& gray, int quality, bool colour, int restart_rows) {
   // Colour: a grey BGR image in, YCbCr 4:2:0 out (libjpeg's defaults for it), flat chroma, as
   // tjCompress2 makes it.
   cv::Mat src = gray;
   if (colour) cv::cvtColor(gray, src, cv::COLOR_GRAY2BGR);
   jpeg_compress_struct c{};
-  CompressError err{};
-  c.err = jpeg_std_error(&err.pub);
-  err.pub.error_exit = on_compress_error;
+  LibjpegErrors err{};
+  c.err = install_libjpeg_errors(err, false);
   unsigned char* buf = nullptr;
   unsigned long size = 0;
   if (setjmp(err.jump) != 0) {

@@ -43,6 +43,8 @@ class JpegRegionDecoder {
   std::uint64_t entered_at_restarts() const { return entered_at_restarts_; }
   std::uint64_t skipped_by_huffman() const { return skipped_by_huffman_; }
   std::uint64_t restart_fallbacks() const { return restart_fallbacks_; }
+  /// Why the last of those fallbacks happened (where the markers were not), for the log.
+  const std::string& restart_problem() const;
 
  private:
   bool plan_restart_cut(std::span<const std::uint8_t> jpeg, int width, int height);

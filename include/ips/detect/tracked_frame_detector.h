@@ -59,6 +59,8 @@ class TrackedFrameDetector {
     std::uint64_t restart_damaged = 0;  ///< frames whose restart markers were not where their headers put them
   };
   const DecodeCounters& decode_counters() const { return decode_; }
+  /// Why the last frame counted in restart_damaged could not be cut at its restart markers.
+  const std::string& restart_problem() const { return decoder_.restart_problem(); }
 
  private:
   bool decode(Frame& frame, const std::vector<cv::Rect>& rois);
