@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "ips/core/error.h"
+#include "ips/core/image_buffer_pool.h"
 
 namespace ipsd {
 
@@ -127,6 +128,12 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
   j["fusion_late"] = fusion.late.load();
   j["fusion_too_old"] = fusion.too_old.load();
   j["queue_drops"] = queue_drops;
+  const ips::ImageBufferPoolStats pool = ips::image_buffer_pool_stats();
+  j["image_buffers"] = {{"reused", pool.reused},
+                        {"allocated", pool.allocated},
+                        {"released", pool.released},
+                        {"cached_mib", static_cast<double>(pool.cached_bytes) / (1 << 20)},
+                        {"in_use_mib", static_cast<double>(pool.in_use_bytes) / (1 << 20)}};
   j["cameras"] = nlohmann::json::array();
   for (const auto& c : rates.cameras()) {
     j["cameras"].push_back({{"name", c.name},

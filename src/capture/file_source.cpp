@@ -106,7 +106,7 @@ bool FileSource::read_image(Frame& out, bool& corrupt) {
       const auto& bytes = preloaded_[index];
       const bool jpeg = bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8;
       if (jpeg && defer_decode_) {
-        out.jpeg.assign(bytes.begin(), bytes.end());  // a camera's MJPEG frame, as copied out of its buffer
+        out.set_jpeg(bytes);  // a camera's MJPEG frame, as copied out of its buffer
         return true;
       }
       if (jpeg) {

@@ -277,7 +277,7 @@ bool V4L2Source::convert(const Mapping& buffer, std::uint32_t bytesused, Frame& 
       // The buffer goes back to the driver at once: copy (~0.05 ms for 300 kB); the camera
       // thread decodes only what it needs. Only the SOI is checked here.
       if (bytesused < 4 || jpeg[0] != 0xFF || jpeg[1] != 0xD8) return false;
-      out.jpeg.assign(jpeg.begin(), jpeg.end());
+      out.set_jpeg(jpeg);
       return true;
     }
     if (!decoder_.decode_gray(jpeg, gray, scale)) {

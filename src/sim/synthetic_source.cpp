@@ -131,7 +131,7 @@ FrameSource::ReadStatus SyntheticSource::read_ahead(Frame& out, std::chrono::mil
   if (!r.jpeg.empty()) {
     jpeg_ = std::move(r.jpeg);
     if (defer_decode_) {
-      out.jpeg = jpeg_;
+      out.set_jpeg(jpeg_);
       return ReadStatus::kFrame;
     }
     if (!decoder_.decode_gray(jpeg_, out.gray)) return ReadStatus::kCorrupt;
@@ -186,7 +186,7 @@ FrameSource::ReadStatus SyntheticSource::read(Frame& out, std::chrono::milliseco
   if (quality > 0) {
     jpeg_ = encode_jpeg(rendered_, quality, options_.colour_jpeg, scene_->render.jpeg_restart_rows);
     if (defer_decode_) {
-      out.jpeg = jpeg_;
+      out.set_jpeg(jpeg_);
     } else if (!decoder_.decode_gray(jpeg_, out.gray)) {
       return ReadStatus::kCorrupt;  // cannot happen for our own encoder; kept honest
     }

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,17 @@ struct Frame {
   /// this JPEG and `gray` is NOT it (only a buffer the reader may decode into, e.g. just the
   /// regions its tracker needs: ips::TrackedFrameDetector). Empty: `gray` is the image.
   std::vector<std::uint8_t> jpeg;
+
+  /// Copies a camera's JPEG frame into `jpeg` with a quarter more room than it needs when the
+  /// buffer must grow: the next frames, a little larger or smaller, reuse it (no allocation
+  /// per frame on the steady-state path).
+  void set_jpeg(std::span<const std::uint8_t> bytes) {
+    if (jpeg.capacity() < bytes.size()) {
+      jpeg.clear();
+      jpeg.reserve(bytes.size() + bytes.size() / 4);
+    }
+    jpeg.assign(bytes.begin(), bytes.end());
+  }
 };
 
 /// A source of frames. One instance is used by one thread.
