@@ -5,6 +5,7 @@
 // a session cut short still holds everything up to the cut.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -33,20 +34,25 @@ namespace cmd_record {  // named, not anonymous: unique in a unity build
 struct Args {
   std::string config, out;
   double seconds = 0.0;
+  bool virtual_time = false;
 };
 
 struct Counters {
   std::atomic<long> frames{0}, detections{0};
+  std::atomic<std::int64_t> last_t_ns{0};  // the newest frame's capture time
+  std::atomic<bool> done{false};
   std::mutex mutex;
   std::set<int> ids;
   std::string problem;
 };
 
-void record_camera(CameraRun& cam, const fs::path& file, std::int64_t start_ns, std::int64_t end_ns, Counters& count) {
+// Until the clock passes `end_ns`, or on virtual time until a frame is stamped past it.
+void record_camera(CameraRun& cam, const fs::path& file, std::int64_t start_ns, std::int64_t end_ns, bool virtual_time,
+                   Counters& count) {
   std::ofstream out(file, std::ios::app);
   out << "# camera " << cam.name << ": t_ns id x0 y0 x1 y1 x2 y2 x3 y3 (t_ns since the session start)\n";
   Frame f;
-  while (monotonic_ns() < end_ns) {
+  while (virtual_time || monotonic_ns() < end_ns) {
     FrameSource::ReadStatus status;
     try {
       status = cam.source->read(f, std::chrono::milliseconds(100));
@@ -70,6 +76,7 @@ void record_camera(CameraRun& cam, const fs::path& file, std::int64_t start_ns, 
     }
     if (status != FrameSource::ReadStatus::kFrame || f.t_mono_ns < start_ns) continue;
     if (f.t_mono_ns > end_ns) break;
+    count.last_t_ns = f.t_mono_ns;
     if (f.gray.size() != cam.model.size()) {
       const std::lock_guard<std::mutex> lock(count.mutex);
       count.problem = "frames are " + std::to_string(f.gray.cols) + "x" + std::to_string(f.gray.rows) +
@@ -90,6 +97,7 @@ void record_camera(CameraRun& cam, const fs::path& file, std::int64_t start_ns, 
     }
     out.flush();
   }
+  count.done = true;
 }
 
 int run(const Args& a) {
@@ -104,6 +112,7 @@ int run(const Args& a) {
 
   SourceContext context;
   context.synthetic_epoch_mono_ns = monotonic_ns();
+  context.virtual_time = a.virtual_time;
   std::vector<CameraRun> cams;
   std::vector<std::pair<std::string, CameraModel>> models;
   for (const auto& c : config.cameras) {
@@ -124,22 +133,33 @@ int run(const Args& a) {
       "~1 s now and then where two cameras see it\n",
       cams.size(), a.seconds, a.out.c_str());
   std::fflush(stdout);
-  const std::int64_t start = monotonic_ns();
+  // Virtual time: the session is scene time 0 to `seconds`, however long it takes to render.
+  const std::int64_t start = a.virtual_time ? context.synthetic_epoch_mono_ns : monotonic_ns();
   const std::int64_t end = start + static_cast<std::int64_t>(a.seconds * 1e9);
   std::vector<std::unique_ptr<Counters>> counts;
   std::vector<std::thread> threads;
   for (std::size_t i = 0; i < cams.size(); ++i) {
     counts.push_back(std::make_unique<Counters>());
-    threads.emplace_back(record_camera, std::ref(cams[i]), dir / session.cameras[i].file, start, end,
+    threads.emplace_back(record_camera, std::ref(cams[i]), dir / session.cameras[i].file, start, end, a.virtual_time,
                          std::ref(*counts[i]));
   }
   const bool tty = ::isatty(STDOUT_FILENO) != 0;
   std::vector<long> last(cams.size(), 0);
   int tick = 0;
-  while (monotonic_ns() < end) {
+  const auto all_done = [&] {
+    return std::all_of(counts.begin(), counts.end(), [](const auto& c) { return c->done.load(); });
+  };
+  while (a.virtual_time ? !all_done() : monotonic_ns() < end) {
     std::this_thread::sleep_for(std::chrono::seconds(1));
     ++tick;
-    std::string line = std::to_string(tick) + "/" + std::to_string(static_cast<int>(a.seconds)) + " s";
+    // Virtual time: how far the slowest camera got in scene time (and frames per wall second).
+    std::int64_t reached = end;
+    for (const auto& c : counts)
+      if (!c->done) reached = std::min(reached, c->last_t_ns.load());
+    std::string line = a.virtual_time
+                           ? "scene time " + std::to_string(std::max<std::int64_t>(0, reached - start) / 1000000000) +
+                                 "/" + std::to_string(static_cast<int>(a.seconds)) + " s (virtual time)"
+                           : std::to_string(tick) + "/" + std::to_string(static_cast<int>(a.seconds)) + " s";
     for (std::size_t i = 0; i < cams.size(); ++i) {
       const long f = counts[i]->frames.load();
       std::string ids;
@@ -159,7 +179,7 @@ int run(const Args& a) {
   }
   for (auto& t : threads) t.join();
   for (auto& c : cams) c.source->close();
-  session.seconds = static_cast<double>(monotonic_ns() - start) * 1e-9;
+  session.seconds = a.virtual_time ? a.seconds : static_cast<double>(monotonic_ns() - start) * 1e-9;
   write_file_atomically(dir / "session.txt", survey::session_header(session));
   if (tty) std::printf("\n");
   for (std::size_t i = 0; i < cams.size(); ++i)
@@ -176,6 +196,9 @@ IPS_REGISTER_COMMAND(
           ->required();
       sub.add_option("--seconds", a->seconds, "How long to record, seconds")->required();
       sub.add_option("--out", a->out, "Session directory (created; must not hold a session already)")->required();
+      sub.add_flag("--virtual-time", a->virtual_time,
+                   "Synthetic and file cameras only: record --seconds of scene time, every frame, as fast as they "
+                   "render (stamped with their exact capture times; a busy machine drops nothing)");
       return [a] { return run(*a); };
     });
 

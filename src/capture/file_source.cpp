@@ -45,6 +45,8 @@ void FileSourceOptions::validate() const {
     throw InputError("file source: 'preload' needs a directory of images, not " + path);
   if (!(fps >= 0 && fps <= 10000)) throw InputError("file source: 'fps' must be in [0, 10000]");
   if (phase_s && !(*phase_s >= 0 && *phase_s < 1)) throw InputError("file source: 'phase' must be in [0, 1) seconds");
+  if (virtual_start_ns != 0 && !(fps > 0))
+    throw InputError("file source: virtual time needs a frame rate ('fps' > 0) to stamp the frames");
 }
 
 FileSource::FileSource(FileSourceOptions options) : options_(std::move(options)) { options_.validate(); }
@@ -74,7 +76,7 @@ void FileSource::open() {
     throw SourceError(describe() + ": cannot open as a video");
   }
   next_file_ = 0;
-  const std::int64_t now = monotonic_ns();
+  const std::int64_t now = options_.virtual_start_ns != 0 ? options_.virtual_start_ns : monotonic_ns();
   grid_origin_ns_ = options_.phase_s ? std::llround(*options_.phase_s * 1e9) : now;
   next_due_ = first_due_at_or_after(now);
   open_ = true;
@@ -148,7 +150,10 @@ std::int64_t FileSource::first_due_at_or_after(std::int64_t t_ns) const {
 
 FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds timeout) {
   if (!open_) throw SourceError(describe() + ": read() on a closed source");
-  if (options_.fps > 0) {
+  std::int64_t stamp = 0;
+  if (options_.virtual_start_ns != 0) {
+    stamp = due_ns(next_due_++);  // virtual time: the frame's own grid time, at once
+  } else if (options_.fps > 0) {
     const std::int64_t now = monotonic_ns();
     const std::int64_t timeout_ns = std::chrono::nanoseconds(timeout).count();
     const std::int64_t due = due_ns(next_due_);
@@ -167,7 +172,7 @@ FrameSource::ReadStatus FileSource::read(Frame& out, std::chrono::milliseconds t
   if (!read_image(out, corrupt)) return ReadStatus::kEnd;
   if (corrupt) return ReadStatus::kCorrupt;
   out.sequence = sequence_++;
-  out.t_mono_ns = monotonic_ns();
+  out.t_mono_ns = stamp != 0 ? stamp : monotonic_ns();
   out.t_real_ns = out.t_mono_ns + realtime_minus_monotonic_ns();
   out.t_delivered_ns = out.t_mono_ns;
   return ReadStatus::kFrame;

@@ -5,6 +5,7 @@
 
 #include "ips/capture/file_source.h"
 #include "ips/capture/v4l2_source.h"
+#include "ips/core/clock.h"
 #include "ips/core/error.h"
 #include "ips/sim/synthetic_source.h"
 
@@ -37,14 +38,17 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
       sim::SyntheticSourceOptions o;
       o.camera = c.scene_camera;
       o.fps = c.fps;
-      o.realtime = true;
+      o.realtime = !context.virtual_time;  // virtual: as fast as it renders, stamped exactly
       o.epoch_mono_ns = context.synthetic_epoch_mono_ns;
       o.phase_ns = std::llround(c.phase_s * 1e9);
-      o.render_ahead = true;  // the daemon's cost is measured, not the renderer's
+      o.render_ahead = o.realtime;  // the daemon's cost is measured, not the renderer's
       if (c.transport_delay_s) o.transport_delay_ns = std::llround(*c.transport_delay_s * 1e9);
       return [scene, o] { return std::make_unique<sim::SyntheticSource>(scene, o); };
     }
     case SourceKind::kV4l2: {
+      if (context.virtual_time)
+        throw InputError(where(c) +
+                         ": a V4L2 camera runs on real time only (virtual time: synthetic and file cameras)");
       V4L2Options o = c.v4l2;
       o.fps = c.fps;
       try {
@@ -58,7 +62,14 @@ SourceFactory make_source_factory(const CameraConfig& c, const SourceContext& co
       FileSourceOptions o = c.file;
       o.fps = c.fps;
       // A phase puts the camera on the clock's grid; none (0), on its own from when it opens.
-      if (c.phase_s > 0) o.phase_s = c.phase_s;
+      if (context.virtual_time) {
+        // Frame k at epoch + phase + k / fps, as a synthetic camera's: the cameras share a timeline.
+        const std::int64_t epoch =
+            context.synthetic_epoch_mono_ns != 0 ? context.synthetic_epoch_mono_ns : monotonic_ns();
+        o.virtual_start_ns = epoch + std::llround(c.phase_s * 1e9);
+      } else if (c.phase_s > 0) {
+        o.phase_s = c.phase_s;
+      }
       try {
         o.validate();
       } catch (const InputError& e) {

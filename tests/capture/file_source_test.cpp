@@ -1,6 +1,7 @@
 #include "ips/capture/file_source.h"
 
 #include <iterator>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -116,10 +117,41 @@ TEST(FileSource, PhasePutsFramesOnTheClocksGrid) {
     ASSERT_EQ(source.read(f, milliseconds(500)), Status::kFrame);
     const std::int64_t point = (f.t_mono_ns - kPhase) / kPeriod * kPeriod + kPhase;  // the grid point at or before
     EXPECT_LT(f.t_mono_ns - point, kPeriod / 2) << "frame " << k;
-    if (previous_point >= 0) EXPECT_EQ(point - previous_point, kPeriod) << "frame " << k;
+    if (previous_point >= 0) {
+      EXPECT_EQ(point - previous_point, kPeriod) << "frame " << k;
+    }
     previous_point = point;
   }
   o.phase_s = 1.0;
+  EXPECT_THROW(ips::FileSource{o}, ips::InputError);
+}
+
+// Virtual time: frames are stamped exactly on the grid from the start instant (k / fps), in
+// order, none skipped, handed over at once however slowly they are read or however fast:
+// 30 frames of 10 fps (2.9 s of stamps) are read without waiting for them, and a reader that
+// dawdles 150 ms per frame still gets every frame, its stamps unchanged.
+TEST(FileSource, VirtualTimeStampsEveryFrameOnTheGridWithoutWaiting) {
+  ips::test::TempDir dir;
+  cv::imwrite(dir / "0.png", flat(10));
+  cv::imwrite(dir / "1.png", flat(20));
+  ips::FileSourceOptions o{dir.str(), 10.0, true};
+  const std::int64_t start = ips::monotonic_ns() + 5'000'000'000;  // in the future: nothing waits for it
+  o.virtual_start_ns = start;
+  ips::FileSource source(o);
+  source.open();
+  ips::Frame f;
+  const std::int64_t t0 = ips::monotonic_ns();
+  for (int k = 0; k < 30; ++k) {
+    ASSERT_EQ(source.read(f, milliseconds(0)), Status::kFrame) << "frame " << k;
+    EXPECT_EQ(f.t_mono_ns, start + k * 100'000'000LL) << "frame " << k;
+    EXPECT_EQ(f.sequence, static_cast<std::uint64_t>(k));
+    EXPECT_EQ(f.gray.at<std::uint8_t>(0, 0), k % 2 == 0 ? 10 : 20) << "the files in order";
+    if (k >= 27) std::this_thread::sleep_for(milliseconds(150));
+  }
+  EXPECT_LT(ips::monotonic_ns() - t0, 2'000'000'000) << "the 2.9 s of frames were not waited for";
+  ASSERT_EQ(source.read(f, milliseconds(0)), Status::kFrame);
+  EXPECT_EQ(f.t_mono_ns, start + 30 * 100'000'000LL) << "a slow reader skips nothing";
+  o.fps = 0;  // no frame rate: nothing to stamp the frames with
   EXPECT_THROW(ips::FileSource{o}, ips::InputError);
 }
 

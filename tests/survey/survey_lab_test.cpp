@@ -3,8 +3,9 @@
 // -> `ips survey` with three floor references -> camera poses vs the scene's truth; then the
 // surveyed model on the locate pipeline (`ips sim collect`: rendered placements, the
 // daemon's detector and depth formula, exact world truth): 2-D error p95 <= 1 cm.
-// The test's wand path is one short loop (~22 s, 0.8 s pauses); docs/survey.md has the 90 s
-// run. Release only: rendering four 1080p cameras in real time is far too slow under the
+// The test's wand path is one short loop (~22 s, 1.5 s pauses, 5 fps), recorded on virtual
+// time (`ips record --virtual-time`: every frame, whatever the machine's load); docs/survey.md
+// has the 90 s run. Release only: rendering four 1080p cameras is far too slow under the
 // sanitizers (the same chain minus the renderer runs there: survey_solve_test.cpp).
 #include <algorithm>
 #include <cmath>
@@ -40,8 +41,9 @@ TEST(SurveyLab, RecordSurveyThenLocateWithinOneCentimetre) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path log = dir / "log.txt";
-  // Long pauses at a low frame rate: the still periods survive frames dropped on a busy machine
-  // (ctest runs other tests beside this one), which left too few shared instants at 0.8 s / 10 fps.
+  // Recorded on virtual time: every frame of the scene's ~22 s, however busy the machine (in
+  // real time, ctest's other tests beside this one made the cameras drop frames and left too
+  // few shared still instants).
   const double pause = 1.5, speed = 1.5;
   std::ofstream(dir / "lab.yaml") << test::lab_scene(IPS_TEST_DATA_DIR, pause, speed);
   std::ofstream(dir / "record.yaml") << record_config("lab.yaml", 5);
@@ -61,7 +63,7 @@ TEST(SurveyLab, RecordSurveyThenLocateWithinOneCentimetre) {
   }
   const std::string seconds = std::to_string(static_cast<int>(std::ceil(loop)) + 1);
   ASSERT_EQ(test::run({test::bin("ips"), "record", "--config", (dir / "record.yaml").string(), "--seconds", seconds,
-                       "--out", (dir / "session").string()},
+                       "--out", (dir / "session").string(), "--virtual-time"},
                       log, std::chrono::seconds(180)),
             0)
       << test::read_file(log);

@@ -36,7 +36,12 @@ struct FileSourceOptions {
   /// different phases deliver apart, as unsynchronised cameras do; the same phase, at once. A
   /// reader that falls behind gets the overdue frame at once and the next one on the grid
   /// again (the phase holds; frames are never skipped).
-  std::optional<double> phase_s;
+  std::optional<double> phase_s = std::nullopt;
+  /// Virtual time (tests and dry runs; 0 = off): read() never waits. The frames are stamped
+  /// with their grid times from this CLOCK_MONOTONIC instant on (the first grid point at or
+  /// after it) and handed over at once, as fast as the reader takes them, whatever the
+  /// machine's load: none is ever skipped. Needs fps > 0.
+  std::int64_t virtual_start_ns = 0;
 
   /// Throws ips::InputError naming the offending field.
   void validate() const;

@@ -14,6 +14,11 @@ struct SourceContext {
   /// CLOCK_MONOTONIC instant of scene time 0, shared by every synthetic camera of the daemon
   /// so that they render the same scene instant for the same capture time.
   std::int64_t synthetic_epoch_mono_ns = 0;
+  /// Virtual time (`ips record --virtual-time`): synthetic and file cameras deliver every frame
+  /// as fast as the reader takes it, stamped with its exact capture time from the epoch above
+  /// on (nothing waits for the clock, nothing is skipped when the machine is busy). A V4L2
+  /// camera cannot (make_source_factory refuses it).
+  bool virtual_time = false;
 };
 
 /// Checks what can be checked at start-up (a synthetic camera's scene loads and has the
