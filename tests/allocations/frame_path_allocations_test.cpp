@@ -24,10 +24,10 @@
 
 #include <gtest/gtest.h>
 
+#include "../detect/moving_markers.h"
 #include "ips/capture/file_source.h"
 #include "ips/core/image_buffer_pool.h"
 #include "ips/detect/tracked_frame_detector.h"
-#include "../detect/moving_markers.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define IPS_MALLOC_SHIM 0
@@ -152,7 +152,8 @@ void tally_recorded(int frame, Tally& tally) {
       ++tally.contour_storage;
       tally.largest_contour_storage = std::max(tally.largest_contour_storage, g_recorded[k].size);
     } else {
-      tally.others += "frame " + std::to_string(frame) + ": " + std::to_string(g_recorded[k].size) + " bytes at:\n" + stack;
+      tally.others +=
+          "frame " + std::to_string(frame) + ": " + std::to_string(g_recorded[k].size) + " bytes at:\n" + stack;
     }
   }
   if (g_large > kMaxRecorded) tally.others += "(and " + std::to_string(g_large - kMaxRecorded) + " more)\n";
@@ -233,10 +234,11 @@ TEST(FramePathAllocations, SteadyStateFramesAllocateNoImageSizedBuffer) {
                                     << tally.others;
   // OpenCV's contour storage is what it is (above), but never an image's size.
   EXPECT_LT(tally.largest_contour_storage, std::size_t{256} << 10);
-  std::printf("steady state, %d frames: %d allocations of OpenCV's contour search (largest %zu bytes), pool %llu "
-              "reused, %zu bytes cached\n",
-              kFrames, tally.contour_storage, tally.largest_contour_storage,
-              static_cast<unsigned long long>(pool.reused - pool_before.reused), pool.cached_bytes);
+  std::printf(
+      "steady state, %d frames: %d allocations of OpenCV's contour search (largest %zu bytes), pool %llu "
+      "reused, %zu bytes cached\n",
+      kFrames, tally.contour_storage, tally.largest_contour_storage,
+      static_cast<unsigned long long>(pool.reused - pool_before.reused), pool.cached_bytes);
 }
 
 }  // namespace

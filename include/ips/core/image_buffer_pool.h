@@ -21,11 +21,11 @@
 namespace ips {
 
 struct ImageBufferPoolStats {
-  std::uint64_t reused = 0;       ///< requests served from the pool
-  std::uint64_t allocated = 0;    ///< requests that had to allocate (the pool had no buffer)
-  std::uint64_t released = 0;     ///< buffers returned to the heap (the pool was full)
-  std::size_t cached_bytes = 0;   ///< held by the pool now, free
-  std::size_t in_use_bytes = 0;   ///< handed out now (pooled sizes only)
+  std::uint64_t reused = 0;      ///< requests served from the pool
+  std::uint64_t allocated = 0;   ///< requests that had to allocate (the pool had no buffer)
+  std::uint64_t released = 0;    ///< buffers returned to the heap (the pool was full)
+  std::size_t cached_bytes = 0;  ///< held by the pool now, free
+  std::size_t in_use_bytes = 0;  ///< handed out now (pooled sizes only)
 };
 
 /// Makes the pool OpenCV's default Mat allocator (cv::Mat::setDefaultAllocator), once per
