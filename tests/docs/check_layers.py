@@ -17,7 +17,7 @@ LAYERS = [
     ["capture"],
     ["geometry"],  # the lens and the marker-size formula: the detector refines edges through the lens
     ["detect"],
-    ["mapping"],
+    ["mapping", "ranging"],  # camera -> world; positions from ranges
     ["fusion"],
     ["output"],
     ["body", "calib", "collect", "survey", "web"],

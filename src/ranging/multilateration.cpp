@@ -1,0 +1,237 @@
+#include "ips/ranging/multilateration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <ceres/ceres.h>
+#include <Eigen/LU>
+#include <Eigen/SVD>
+
+namespace ips {
+namespace {
+
+// Below this ratio of the smallest to the largest singular value the references are taken as
+// coplanar (collinear at a known height): the linearised system has no unique solution, and
+// nearly so, noise of millimetres moves the candidate by metres.
+constexpr double kDegenerate = 1e-6;
+// The subset solver enumerates every combination: 20 references are 4845 4-subsets.
+constexpr std::size_t kMaxSubsetRanges = 20;
+
+bool valid(const RangeToAnchor& r) {
+  return r.anchor.allFinite() && std::isfinite(r.range_m) && r.range_m >= 0 && std::isfinite(r.sigma_m) &&
+         r.sigma_m > 0;
+}
+
+std::string check_input(std::span<const RangeToAnchor> ranges, std::size_t needed) {
+  for (std::size_t i = 0; i < ranges.size(); ++i)
+    if (!valid(ranges[i]))
+      return "range " + std::to_string(i) + " is not finite, negative, or has no positive sigma";
+  if (ranges.size() < needed)
+    return std::to_string(ranges.size()) + " ranges; at least " + std::to_string(needed) + " are needed";
+  return {};
+}
+
+double rms_residual(std::span<const RangeToAnchor> ranges, const Eigen::Vector3d& p) {
+  double sum = 0;
+  for (const auto& r : ranges) sum += std::pow((r.anchor - p).norm() - r.range_m, 2);
+  return ranges.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(ranges.size()));
+}
+
+// (J^T W J)^-1 of the range residuals at p: the position's covariance for independent range
+// errors of the given sigmas. False when the geometry leaves a direction unconstrained.
+bool geometric_covariance(std::span<const RangeToAnchor> ranges, const Eigen::Vector3d& p, bool known_height,
+                          Eigen::Matrix3d& covariance) {
+  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+  for (const auto& r : ranges) {
+    const Eigen::Vector3d d = p - r.anchor;
+    const double n = d.norm();
+    if (n < 1e-9) continue;  // on the anchor: the direction is undefined, the range says nothing more
+    const Eigen::Vector3d u = d / n;
+    info += u * u.transpose() / (r.sigma_m * r.sigma_m);
+  }
+  covariance.setZero();
+  const int dim = known_height ? 2 : 3;
+  const Eigen::MatrixXd block = info.topLeftCorner(dim, dim);
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(block);
+  const auto& s = svd.singularValues();
+  if (s(0) <= 0 || s(dim - 1) / s(0) < kDegenerate) return false;
+  covariance.topLeftCorner(dim, dim) = block.inverse();
+  return true;
+}
+
+// Solves A x = b (square) unless A is (nearly) singular.
+template <int N>
+std::optional<Eigen::Matrix<double, N, 1>> solve_square(const Eigen::Matrix<double, N, N>& a,
+                                                        const Eigen::Matrix<double, N, 1>& b) {
+  Eigen::JacobiSVD<Eigen::Matrix<double, N, N>> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const auto& s = svd.singularValues();
+  if (!(s(0) > 0) || s(N - 1) / s(0) < kDegenerate) return std::nullopt;
+  Eigen::Matrix<double, N, 1> x = svd.solve(b);
+  if (!x.allFinite()) return std::nullopt;
+  return x;
+}
+
+double median(std::vector<double> v) {
+  const std::size_t n = v.size(), mid = n / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  const double upper = v[mid];
+  if (n % 2 == 1) return upper;
+  return 0.5 * (upper + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)));
+}
+
+// Calls f with the indices of every k-subset of {0..n-1}.
+template <typename F>
+void for_each_subset(std::size_t n, std::size_t k, F&& f) {
+  std::vector<std::size_t> idx(k);
+  std::iota(idx.begin(), idx.end(), 0);
+  while (true) {
+    f(idx);
+    std::size_t i = k;
+    while (i > 0 && idx[i - 1] == n - k + i - 1) --i;
+    if (i == 0) return;
+    ++idx[i - 1];
+    for (std::size_t j = i; j < k; ++j) idx[j] = idx[j - 1] + 1;
+  }
+}
+
+// The residual of one range, in sigmas (so that a Huber threshold is in sigmas too).
+struct RangeResidual {
+  RangeToAnchor r;
+  template <typename T>
+  bool operator()(const T* xy, const T* z, T* residual) const {
+    const T dx = xy[0] - T(r.anchor.x()), dy = xy[1] - T(r.anchor.y()), dz = z[0] - T(r.anchor.z());
+    residual[0] = (ceres::sqrt(dx * dx + dy * dy + dz * dz + T(1e-18)) - T(r.range_m)) / T(r.sigma_m);
+    return true;
+  }
+};
+
+RangeFix finish(RangeFix fix, std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options) {
+  fix.ranges_used = static_cast<int>(ranges.size());
+  fix.rms_residual_m = rms_residual(ranges, fix.position);
+  if (!geometric_covariance(ranges, fix.position, options.known_height.has_value(), fix.covariance)) {
+    fix.ok = false;
+    fix.why = options.known_height ? "the anchors are in one line seen from above: the position is ambiguous"
+                                   : "the anchors are in one plane: above and below it cannot be told apart "
+                                     "(give the tag's height)";
+  }
+  return fix;
+}
+
+}  // namespace
+
+std::optional<Eigen::Vector3d> solve_four_ranges(std::span<const RangeToAnchor> four) {
+  if (four.size() != 4) return std::nullopt;
+  // |x - p_i|^2 = d_i^2 minus the same for p_0: 2 (p_i - p_0) . x = d_0^2 - d_i^2 + |p_i|^2 - |p_0|^2
+  // (Albayati & Kurt eq. 9, x = M^-1 b).
+  Eigen::Matrix3d m;
+  Eigen::Vector3d b;
+  const RangeToAnchor& r0 = four[0];
+  for (int i = 1; i < 4; ++i) {
+    const RangeToAnchor& ri = four[static_cast<std::size_t>(i)];
+    m.row(i - 1) = 2.0 * (ri.anchor - r0.anchor).transpose();
+    b(i - 1) = r0.range_m * r0.range_m - ri.range_m * ri.range_m + ri.anchor.squaredNorm() - r0.anchor.squaredNorm();
+  }
+  return solve_square<3>(m, b);
+}
+
+std::optional<Eigen::Vector3d> solve_three_ranges_at_height(std::span<const RangeToAnchor> three, double z) {
+  if (three.size() != 3) return std::nullopt;
+  Eigen::Matrix2d m;
+  Eigen::Vector2d b;
+  const RangeToAnchor& r0 = three[0];
+  for (int i = 1; i < 3; ++i) {
+    const RangeToAnchor& ri = three[static_cast<std::size_t>(i)];
+    const Eigen::Vector3d d = ri.anchor - r0.anchor;
+    m.row(i - 1) = 2.0 * d.head<2>().transpose();
+    b(i - 1) = r0.range_m * r0.range_m - ri.range_m * ri.range_m + ri.anchor.squaredNorm() -
+               r0.anchor.squaredNorm() - 2.0 * z * d.z();
+  }
+  const auto xy = solve_square<2>(m, b);
+  if (!xy) return std::nullopt;
+  return Eigen::Vector3d(xy->x(), xy->y(), z);
+}
+
+RangeFix fix_from_subsets(std::span<const RangeToAnchor> ranges, SubsetVote vote, const RangeSolveOptions& options) {
+  RangeFix fix;
+  const std::size_t k = options.known_height ? 3 : 4;
+  fix.why = check_input(ranges, k);
+  if (!fix.why.empty()) return fix;
+  if (ranges.size() > kMaxSubsetRanges) {
+    fix.why = std::to_string(ranges.size()) + " ranges; the subset solver takes at most " +
+              std::to_string(kMaxSubsetRanges) + " (use the least-squares solver)";
+    return fix;
+  }
+  std::vector<double> xs, ys, zs;
+  std::vector<RangeToAnchor> subset(k);
+  for_each_subset(ranges.size(), k, [&](const std::vector<std::size_t>& idx) {
+    for (std::size_t j = 0; j < k; ++j) subset[j] = ranges[idx[j]];
+    const auto p = options.known_height ? solve_three_ranges_at_height(subset, *options.known_height)
+                                        : solve_four_ranges(subset);
+    if (!p) return;
+    xs.push_back(p->x());
+    ys.push_back(p->y());
+    zs.push_back(p->z());
+  });
+  fix.subsets_solved = static_cast<int>(xs.size());
+  if (xs.empty()) {
+    fix.why = options.known_height ? "every 3 of the anchors are in one line seen from above"
+                                   : "every 4 of the anchors are in one plane (give the tag's height)";
+    return fix;
+  }
+  const auto combine = [&](const std::vector<double>& v) {
+    return vote == SubsetVote::kMedian ? median(v) : std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
+  };
+  fix.position = {combine(xs), combine(ys), combine(zs)};
+  fix.ok = true;
+  return finish(std::move(fix), ranges, options);
+}
+
+RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
+                           const std::optional<Eigen::Vector3d>& initial) {
+  RangeFix fix;
+  fix.why = check_input(ranges, options.known_height ? 3 : 4);
+  if (!fix.why.empty()) return fix;
+  Eigen::Vector3d start = Eigen::Vector3d::Zero();
+  if (initial && initial->allFinite()) {
+    start = *initial;
+  } else {
+    RangeFix seed;
+    if (ranges.size() <= kMaxSubsetRanges) seed = fix_from_subsets(ranges, SubsetVote::kMedian, options);
+    if (seed.subsets_solved > 0) {
+      start = seed.position;
+    } else {
+      for (const auto& r : ranges) start += r.anchor;
+      start /= static_cast<double>(ranges.size());
+    }
+  }
+  if (options.known_height) start.z() = *options.known_height;
+  double xy[2] = {start.x(), start.y()};
+  double z[1] = {start.z()};
+  ceres::Problem problem;
+  for (const auto& r : ranges) {
+    ceres::LossFunction* loss = options.huber_sigmas > 0 ? new ceres::HuberLoss(options.huber_sigmas) : nullptr;
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RangeResidual, 1, 2, 1>(new RangeResidual{r}), loss, xy, z);
+  }
+  if (options.known_height) problem.SetParameterBlockConstant(z);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = 50;
+  solver.num_threads = 1;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) {
+    fix.why = "the least-squares solve failed: " + summary.message;
+    return fix;
+  }
+  fix.position = {xy[0], xy[1], z[0]};
+  fix.ok = fix.position.allFinite();
+  if (!fix.ok) {
+    fix.why = "the least-squares solve diverged";
+    return fix;
+  }
+  return finish(std::move(fix), ranges, options);
+}
+
+}  // namespace ips
