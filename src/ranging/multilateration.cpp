@@ -25,8 +25,7 @@ bool valid(const RangeToAnchor& r) {
 
 std::string check_input(std::span<const RangeToAnchor> ranges, std::size_t needed) {
   for (std::size_t i = 0; i < ranges.size(); ++i)
-    if (!valid(ranges[i]))
-      return "range " + std::to_string(i) + " is not finite, negative, or has no positive sigma";
+    if (!valid(ranges[i])) return "range " + std::to_string(i) + " is not finite, negative, or has no positive sigma";
   if (ranges.size() < needed)
     return std::to_string(ranges.size()) + " ranges; at least " + std::to_string(needed) + " are needed";
   return {};
@@ -144,8 +143,8 @@ std::optional<Eigen::Vector3d> solve_three_ranges_at_height(std::span<const Rang
     const RangeToAnchor& ri = three[static_cast<std::size_t>(i)];
     const Eigen::Vector3d d = ri.anchor - r0.anchor;
     m.row(i - 1) = 2.0 * d.head<2>().transpose();
-    b(i - 1) = r0.range_m * r0.range_m - ri.range_m * ri.range_m + ri.anchor.squaredNorm() -
-               r0.anchor.squaredNorm() - 2.0 * z * d.z();
+    b(i - 1) = r0.range_m * r0.range_m - ri.range_m * ri.range_m + ri.anchor.squaredNorm() - r0.anchor.squaredNorm() -
+               2.0 * z * d.z();
   }
   const auto xy = solve_square<2>(m, b);
   if (!xy) return std::nullopt;
@@ -166,8 +165,8 @@ RangeFix fix_from_subsets(std::span<const RangeToAnchor> ranges, SubsetVote vote
   std::vector<RangeToAnchor> subset(k);
   for_each_subset(ranges.size(), k, [&](const std::vector<std::size_t>& idx) {
     for (std::size_t j = 0; j < k; ++j) subset[j] = ranges[idx[j]];
-    const auto p = options.known_height ? solve_three_ranges_at_height(subset, *options.known_height)
-                                        : solve_four_ranges(subset);
+    const auto p =
+        options.known_height ? solve_three_ranges_at_height(subset, *options.known_height) : solve_four_ranges(subset);
     if (!p) return;
     xs.push_back(p->x());
     ys.push_back(p->y());
@@ -211,7 +210,8 @@ RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSol
   ceres::Problem problem;
   for (const auto& r : ranges) {
     ceres::LossFunction* loss = options.huber_sigmas > 0 ? new ceres::HuberLoss(options.huber_sigmas) : nullptr;
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RangeResidual, 1, 2, 1>(new RangeResidual{r}), loss, xy, z);
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RangeResidual, 1, 2, 1>(new RangeResidual{r}), loss, xy,
+                             z);
   }
   if (options.known_height) problem.SetParameterBlockConstant(z);
   ceres::Solver::Options solver;

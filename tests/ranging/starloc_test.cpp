@@ -125,11 +125,11 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
   solve_all(true, true, h_known, v_known);
   std::printf("known height: horizontal p50 %.1f p95 %.1f cm\n", 100 * pct(h_known, 0.5), 100 * pct(h_known, 0.95));
   ASSERT_GT(h_cal.size(), 500u);
-  std::printf("STAR-loc loop-2d-fast_s2, %zu fixes: calibrated ranges horizontal p50 %.1f p95 %.1f cm, vertical p50 "
-              "%.1f p95 %.1f cm; raw ranges horizontal p50 %.1f p95 %.1f cm, vertical p50 %.1f p95 %.1f cm\n",
-              h_cal.size(), 100 * pct(h_cal, 0.5), 100 * pct(h_cal, 0.95), 100 * pct(v_cal, 0.5),
-              100 * pct(v_cal, 0.95), 100 * pct(h_raw, 0.5), 100 * pct(h_raw, 0.95), 100 * pct(v_raw, 0.5),
-              100 * pct(v_raw, 0.95));
+  std::printf(
+      "STAR-loc loop-2d-fast_s2, %zu fixes: calibrated ranges horizontal p50 %.1f p95 %.1f cm, vertical p50 "
+      "%.1f p95 %.1f cm; raw ranges horizontal p50 %.1f p95 %.1f cm, vertical p50 %.1f p95 %.1f cm\n",
+      h_cal.size(), 100 * pct(h_cal, 0.5), 100 * pct(h_cal, 0.95), 100 * pct(v_cal, 0.5), 100 * pct(v_cal, 0.95),
+      100 * pct(h_raw, 0.5), 100 * pct(h_raw, 0.95), 100 * pct(v_raw, 0.5), 100 * pct(v_raw, 0.95));
   // Measured 2026-11-26 (docs/ranging.md): 14.6 / 48.6 cm horizontal, 37.8 cm vertical p50;
   // 10.1 / 30.1 cm at a known height; raw ranges 18.2 / 51.5 cm. The bounds leave ~30 %.
   EXPECT_LT(pct(h_cal, 0.5), 0.19);
