@@ -19,11 +19,8 @@ Eigen::Vector3d BodyTrack::velocity(const Track& track) {
   return (p1.position - p0.position) / (1e-9 * static_cast<double>(p1.t_ns - p0.t_ns));
 }
 
-void BodyTrack::set_velocity(const Track& track, FusedBody& f) {
-  f.has_velocity = track.path.size() >= 2 && track.path.back().t_ns > track.path.front().t_ns;
-  f.velocity = velocity(track);
-  f.has_yaw_rate = false;
-  f.yaw_rate = 0.0;
+bool BodyTrack::yaw_rate(const Track& track, double& rate) {
+  rate = 0.0;
   const Track::Pose* first = nullptr;
   const Track::Pose* last = nullptr;
   for (const auto& p : track.path)
@@ -31,12 +28,31 @@ void BodyTrack::set_velocity(const Track& track, FusedBody& f) {
       if (!first) first = &p;
       last = &p;
     }
+  if (!first || !last || last->t_ns <= first->t_ns) return false;
   // Yaw difference taken the short way round: a body turns less than half a turn in a span.
-  if (first && last && last->t_ns > first->t_ns) {
-    f.has_yaw_rate = true;
-    f.yaw_rate =
-        std::remainder(last->yaw - first->yaw, 2 * M_PI) / (1e-9 * static_cast<double>(last->t_ns - first->t_ns));
+  rate = std::remainder(last->yaw - first->yaw, 2 * M_PI) / (1e-9 * static_cast<double>(last->t_ns - first->t_ns));
+  return true;
+}
+
+void BodyTrack::set_velocity(const Track& track, FusedBody& f) {
+  f.has_velocity = track.path.size() >= 2 && track.path.back().t_ns > track.path.front().t_ns;
+  f.velocity = velocity(track);
+  f.has_yaw_rate = yaw_rate(track, f.yaw_rate);
+}
+
+void BodyTrack::move_forward(BodyObservation& o, const Eigen::Vector3d& shift, double turn) {
+  // Turn about the body's origin as this view placed it (a vertical axis: ground robots and
+  // cubes on a floor), then move by the velocity. The marker centre turns with the body: the
+  // baseline yaw of two markers seen by different cameras at different times then agrees.
+  const Eigen::AngleAxisd rz(turn, Eigen::Vector3d::UnitZ());
+  if (turn != 0.0 && !o.positions.empty()) {
+    o.marker_centre = o.positions.front() + rz * (o.marker_centre - o.positions.front());
+    o.marker_normal = rz * o.marker_normal;
+    for (auto& y : o.yaws) y = std::remainder(y + turn, 2 * M_PI);
+    for (auto& q : o.qs) q = Eigen::Quaterniond(rz) * q;
   }
+  for (auto& p : o.positions) p += shift;
+  o.marker_centre += shift;
 }
 
 void BodyTrack::add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_real_ns,
@@ -66,8 +82,11 @@ void BodyTrack::add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_rea
     }
 
     // The instant: this frame's views as they are, every other camera's newest frame at or
-    // before T within the window moved forward to T.
+    // before T within the window moved forward to T (turned by the yaw rate, moved by the
+    // velocity).
     const Eigen::Vector3d v = velocity(track);
+    double omega = 0.0;
+    yaw_rate(track, omega);
     instant.clear();
     for (const auto& [c, q] : track.by_camera) {
       const Frame* f = nullptr;
@@ -79,10 +98,9 @@ void BodyTrack::add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_rea
           if (fr.t_ns <= t_mono_ns && t_mono_ns - fr.t_ns <= window_ns) f = &fr;
       }
       if (!f) continue;
-      const Eigen::Vector3d shift = v * (1e-9 * static_cast<double>(t_mono_ns - f->t_ns));
+      const double dt = 1e-9 * static_cast<double>(t_mono_ns - f->t_ns);
       for (BodyObservation o : f->views) {
-        for (auto& p : o.positions) p += shift;
-        o.marker_centre += shift;
+        move_forward(o, v * dt, omega * dt);
         o.t_mono_ns = t_mono_ns;
         o.t_real_ns = t_real_ns;
         instant.push_back(std::move(o));

@@ -1,6 +1,7 @@
 // The daemon's asynchronous body fusion (ips/body/body_track.h) on hand-made views: one pose per
 // frame at the frame's time, other cameras' older views moved forward by the body's velocity,
 // and a body's stream never going back in time.
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -109,6 +110,47 @@ TEST(BodyTrack, EachPoseCarriesTheVelocityAndYawRateOverTheSpanTheShortWayRound)
     EXPECT_NEAR(out[k].yaw_rate, 2.0, 1e-6) << k;  // not -6.3 rad/s across the wrap
   }
   EXPECT_LT(out[10].pose.yaw, 0.0);  // the turn went through +-pi
+}
+
+// A robot turning in place at 41 deg/s, one marker seen by each of two unsynchronised cameras
+// (33 ms frames, camera 1 31 ms after camera 0): every pose fuses the frame's marker with the
+// other camera's older one, whose yaw and marker centre must be turned forward too. Measured
+// from outside before the older views were turned: the fused yaw lagged by 0.68 deg on average.
+TEST(BodyTrack, OtherCamerasViewsAreTurnedForwardByTheBodysYawRate) {
+  BodyTrack track(two_marker_robot());
+  const double omega = 41.0 * M_PI / 180.0;
+  const Eigen::Vector3d origin(1.0, 2.0, 0.0);
+  auto turning_view = [&](int camera, int face, std::int64_t t_ns) {
+    const double yaw = std::remainder(omega * 1e-9 * static_cast<double>(t_ns), 2 * M_PI);
+    BodyObservation o = view(camera, face, origin.x(), origin.y(), t_ns, yaw);
+    const Eigen::Vector3d offset(face == 0 ? 0.2 : -0.2, 0.0, 0.25);
+    o.marker_centre = origin + Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * offset;
+    return o;
+  };
+  std::vector<FusedBody> out;
+  double worst_deg = 0;
+  int fused_from_both = 0;
+  for (int k = 0; k < 60; ++k) {
+    for (int camera : {0, 1}) {
+      const std::int64_t t = k * 33'000'000LL + camera * 31'000'000LL;
+      const std::vector<BodyObservation> v{turning_view(camera, camera, t)};
+      out.clear();
+      track.add(camera, t, t, v, mean(), out);
+      ASSERT_EQ(out.size(), 1u);
+      // The first poses, before there is a yaw rate, lag; their echo in the rate over the span
+      // decays within a second.
+      if (k < 30 || out[0].camera_mask != 3u) continue;
+      ++fused_from_both;
+      const double truth = omega * 1e-9 * static_cast<double>(t);
+      const double error_deg = std::remainder(out[0].pose.yaw - truth, 2 * M_PI) * 180.0 / M_PI;
+      worst_deg = std::max(worst_deg, std::abs(error_deg));
+      EXPECT_NEAR(out[0].pose.position.x(), origin.x(), 1e-5);
+      EXPECT_NEAR(out[0].pose.position.y(), origin.y(), 1e-5);
+    }
+  }
+  EXPECT_EQ(fused_from_both, 60);
+  // The yaw rate over the span is exact for a constant turn: nothing but rounding is left.
+  EXPECT_LT(worst_deg, 0.005);
 }
 
 TEST(BodyTrack, ALateFrameIsMergedButNeverPublishedBackInTime) {

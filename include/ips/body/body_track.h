@@ -2,7 +2,8 @@
 // each camera frame's body observations (ips/body/body_estimate.h) produce at once one pose per
 // body that frame saw, at that frame's capture time T, fused over all the body's markers and
 // every camera that saw it within `window_s` before T. Another camera's older views are moved
-// forward to T by the body's own velocity (from its recent published positions), then the
+// forward to T by the body's own velocity and turned by its own yaw rate about its origin
+// (both from its recent published poses; a vertical axis of rotation), then the
 // views of the instant go through BodyEstimator::fuse (cube faces told apart, baseline yaw,
 // the configured method).
 //
@@ -69,6 +70,8 @@ class BodyTrack {
     std::deque<Pose> path;  // recent published poses, within the velocity span
   };
   static Eigen::Vector3d velocity(const Track& track);
+  static bool yaw_rate(const Track& track, double& rate);  // rad/s over the span; false without two yaws
+  static void move_forward(BodyObservation& o, const Eigen::Vector3d& shift, double turn);
   /// The body's velocity and yaw rate from its path (the newest pose included).
   static void set_velocity(const Track& track, FusedBody& f);
 
