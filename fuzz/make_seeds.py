@@ -104,6 +104,9 @@ def main():
     put("calib_csv", "train_head.csv", "\n".join(csv[:12]) + "\n")
     put("calib_csv", "points.csv", "xw,yw,zw,label\n0.5,1.0,0.12,a\n-1.25,2.0,0.12,b\n3,0,0\n")
     put("calib_csv", "entry_lines.txt", "1.0 2.0 0.12\n0.5 0.5\nu\nq\n-3 4.5 0\n")
+    put("calib_csv", "ranges.csv", "fix,reference,range,sigma,ref_x,ref_y,ref_z,ref_sigma\n"
+        "1,a,2.1,0.05,,,,\n1,b,4.3,,,,,\n1,c,4.4,0.05,,,,\n1,1,2.9,0.05,,,,\n"
+        "2,a,1,0.1,,,,\n2,robot,1.5,0.05,3,2,0.3,0.02\n")
     put("datagram", "binary_2.bin", datagram([(7, 1.5, -2.25), (12, 0.0, 3.0)]))
     put("datagram", "binary_velocity.bin", datagram([(3, 0.25, 0.5)], velocity=True, part=1, parts=2))
     put("datagram", "binary_future_record.bin", datagram([(9, 1.0, 1.0)], extra=8))

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include <ceres/ceres.h>
 #include <Eigen/LU>
 #include <Eigen/SVD>
+#include <nlopt.hpp>
 
 namespace ips {
 namespace {
@@ -18,17 +20,49 @@ constexpr double kDegenerate = 1e-6;
 // The subset solver enumerates every combination: 20 references are 4845 4-subsets.
 constexpr std::size_t kMaxSubsetRanges = 20;
 
+// A lab is not 1000 km across: larger values are typos or hostile, and would overflow squares.
+constexpr double kMaxMetres = 1e6;
+
 bool valid(const RangeToAnchor& r) {
-  return r.anchor.allFinite() && std::isfinite(r.range_m) && r.range_m >= 0 && std::isfinite(r.sigma_m) &&
-         r.sigma_m > 0;
+  return r.anchor.allFinite() && r.anchor.cwiseAbs().maxCoeff() <= kMaxMetres && std::isfinite(r.range_m) &&
+         r.range_m >= 0 && r.range_m <= kMaxMetres && std::isfinite(r.sigma_m) && r.sigma_m > 0 &&
+         r.sigma_m <= kMaxMetres;
 }
 
-std::string check_input(std::span<const RangeToAnchor> ranges, std::size_t needed) {
+// False (with the fix's status and why) if the ranges cannot be solved at all.
+bool check_input(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options, RangeFix& fix) {
   for (std::size_t i = 0; i < ranges.size(); ++i)
-    if (!valid(ranges[i])) return "range " + std::to_string(i) + " is not finite, negative, or has no positive sigma";
-  if (ranges.size() < needed)
-    return std::to_string(ranges.size()) + " ranges; at least " + std::to_string(needed) + " are needed";
-  return {};
+    if (!valid(ranges[i])) {
+      fix.status = RangeFixStatus::kBadRange;
+      fix.why = "range " + std::to_string(i) + " is not finite, negative, beyond 1000 km, or has no positive sigma";
+      return false;
+    }
+  if (options.z_range && !(std::isfinite(options.z_range->first) && std::isfinite(options.z_range->second) &&
+                           options.z_range->first <= options.z_range->second)) {
+    fix.status = RangeFixStatus::kBadRange;
+    fix.why = "the z range is not [min, max] with min <= max";
+    return false;
+  }
+  const std::size_t needed = options.known_height ? 3 : 4;
+  if (ranges.size() < needed) {
+    fix.status = RangeFixStatus::kTooFew;
+    fix.why = std::to_string(ranges.size()) + " ranges; at least " + std::to_string(needed) + " are needed";
+    return false;
+  }
+  return true;
+}
+
+// All anchors in one plane (nearly): above and below it give the same ranges.
+bool anchors_coplanar(std::span<const RangeToAnchor> ranges) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& r : ranges) mean += r.anchor;
+  mean /= static_cast<double>(ranges.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& r : ranges) scatter += (r.anchor - mean) * (r.anchor - mean).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(scatter);
+  const auto& sv = svd.singularValues();
+  // The scatter's singular values are squared extents: 1e-6 of the largest is 1e-3 in extent.
+  return !(sv(0) > 0) || sv(2) / sv(0) < 1e-6;
 }
 
 double rms_residual(std::span<const RangeToAnchor> ranges, const Eigen::Vector3d& p) {
@@ -105,14 +139,22 @@ struct RangeResidual {
   }
 };
 
+constexpr const char* kCoplanarWhy =
+    "the anchors are in one plane: above and below it cannot be told apart (give the tag's height or a z range)";
+
 RangeFix finish(RangeFix fix, std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options) {
   fix.ranges_used = static_cast<int>(ranges.size());
   fix.rms_residual_m = rms_residual(ranges, fix.position);
-  if (!geometric_covariance(ranges, fix.position, options.known_height.has_value(), fix.covariance)) {
+  fix.ok = true;
+  fix.status = RangeFixStatus::kOk;
+  fix.why.clear();
+  // Never a silent mirror image: coplanar anchors need the height, or a z range on one side.
+  const bool mirror = !options.known_height && !options.z_range && anchors_coplanar(ranges);
+  if (mirror || !geometric_covariance(ranges, fix.position, options.known_height.has_value(), fix.covariance)) {
     fix.ok = false;
-    fix.why = options.known_height ? "the anchors are in one line seen from above: the position is ambiguous"
-                                   : "the anchors are in one plane: above and below it cannot be told apart "
-                                     "(give the tag's height)";
+    fix.status = options.known_height ? RangeFixStatus::kCollinear : RangeFixStatus::kCoplanar;
+    fix.why =
+        options.known_height ? "the anchors are in one line seen from above: the position is ambiguous" : kCoplanarWhy;
   }
   return fix;
 }
@@ -154,9 +196,9 @@ std::optional<Eigen::Vector3d> solve_three_ranges_at_height(std::span<const Rang
 RangeFix fix_from_subsets(std::span<const RangeToAnchor> ranges, SubsetVote vote, const RangeSolveOptions& options) {
   RangeFix fix;
   const std::size_t k = options.known_height ? 3 : 4;
-  fix.why = check_input(ranges, k);
-  if (!fix.why.empty()) return fix;
+  if (!check_input(ranges, options, fix)) return fix;
   if (ranges.size() > kMaxSubsetRanges) {
+    fix.status = RangeFixStatus::kTooMany;
     fix.why = std::to_string(ranges.size()) + " ranges; the subset solver takes at most " +
               std::to_string(kMaxSubsetRanges) + " (use the least-squares solver)";
     return fix;
@@ -174,6 +216,7 @@ RangeFix fix_from_subsets(std::span<const RangeToAnchor> ranges, SubsetVote vote
   });
   fix.subsets_solved = static_cast<int>(xs.size());
   if (xs.empty()) {
+    fix.status = options.known_height ? RangeFixStatus::kCollinear : RangeFixStatus::kCoplanar;
     fix.why = options.known_height ? "every 3 of the anchors are in one line seen from above"
                                    : "every 4 of the anchors are in one plane (give the tag's height)";
     return fix;
@@ -182,15 +225,15 @@ RangeFix fix_from_subsets(std::span<const RangeToAnchor> ranges, SubsetVote vote
     return vote == SubsetVote::kMedian ? median(v) : std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
   };
   fix.position = {combine(xs), combine(ys), combine(zs)};
-  fix.ok = true;
   return finish(std::move(fix), ranges, options);
 }
 
-RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
-                           const std::optional<Eigen::Vector3d>& initial) {
-  RangeFix fix;
-  fix.why = check_input(ranges, options.known_height ? 3 : 4);
-  if (!fix.why.empty()) return fix;
+namespace {
+
+// Where the iterative solvers start: `initial`, else the subsets' median, else the anchors'
+// centroid; at the known height, or inside the z range (its middle if the start is not in it).
+Eigen::Vector3d starting_point(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
+                               const std::optional<Eigen::Vector3d>& initial) {
   Eigen::Vector3d start = Eigen::Vector3d::Zero();
   if (initial && initial->allFinite()) {
     start = *initial;
@@ -205,6 +248,20 @@ RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSol
     }
   }
   if (options.known_height) start.z() = *options.known_height;
+  if (options.z_range && !options.known_height) {
+    const auto [lo, hi] = *options.z_range;
+    if (!(start.z() > lo && start.z() < hi)) start.z() = lo < hi ? 0.5 * (lo + hi) : lo;
+  }
+  return start;
+}
+
+}  // namespace
+
+RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
+                           const std::optional<Eigen::Vector3d>& initial) {
+  RangeFix fix;
+  if (!check_input(ranges, options, fix)) return fix;
+  const Eigen::Vector3d start = starting_point(ranges, options, initial);
   double xy[2] = {start.x(), start.y()};
   double z[1] = {start.z()};
   ceres::Problem problem;
@@ -213,7 +270,12 @@ RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSol
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RangeResidual, 1, 2, 1>(new RangeResidual{r}), loss, xy,
                              z);
   }
-  if (options.known_height) problem.SetParameterBlockConstant(z);
+  if (options.known_height) {
+    problem.SetParameterBlockConstant(z);
+  } else if (options.z_range) {
+    problem.SetParameterLowerBound(z, 0, options.z_range->first);
+    problem.SetParameterUpperBound(z, 0, options.z_range->second);
+  }
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_QR;
   solver.max_num_iterations = 50;
@@ -226,12 +288,69 @@ RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSol
     return fix;
   }
   fix.position = {xy[0], xy[1], z[0]};
-  fix.ok = fix.position.allFinite();
-  if (!fix.ok) {
+  if (!fix.position.allFinite()) {
     fix.why = "the least-squares solve diverged";
     return fix;
   }
   return finish(std::move(fix), ranges, options);
+}
+
+RangeFix fix_nelder_mead(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
+                         const std::optional<Eigen::Vector3d>& initial) {
+  RangeFix fix;
+  if (!check_input(ranges, options, fix)) return fix;
+  const Eigen::Vector3d start = starting_point(ranges, options, initial);
+  struct Problem {
+    std::span<const RangeToAnchor> ranges;
+    std::optional<double> z;
+  } problem{ranges, options.known_height};
+  // Petković et al.'s eq. (5): F = sum_i (|p_i - p| - d_i)^2, unweighted.
+  const auto objective = [](unsigned, const double* x, double*, void* data) {
+    const auto* pb = static_cast<const Problem*>(data);
+    const Eigen::Vector3d p(x[0], x[1], pb->z ? *pb->z : x[2]);
+    double f = 0;
+    for (const auto& r : pb->ranges) f += std::pow((r.anchor - p).norm() - r.range_m, 2);
+    return f;
+  };
+  const unsigned dim = options.known_height ? 2 : 3;
+  nlopt::opt opt(nlopt::LN_NELDERMEAD, dim);
+  opt.set_min_objective(objective, &problem);
+  opt.set_xtol_abs(1e-7);
+  opt.set_maxeval(5000);
+  opt.set_initial_step(0.1);
+  if (options.z_range && !options.known_height) {
+    const double inf = std::numeric_limits<double>::infinity();
+    opt.set_lower_bounds(std::vector<double>{-inf, -inf, options.z_range->first});
+    opt.set_upper_bounds(std::vector<double>{inf, inf, options.z_range->second});
+  }
+  std::vector<double> x = {start.x(), start.y()};
+  if (dim == 3) x.push_back(start.z());
+  double f = 0;
+  try {
+    opt.optimize(x, f);
+  } catch (const std::exception& e) {
+    fix.why = std::string("Nelder-Mead failed: ") + e.what();
+    return fix;
+  }
+  fix.position = {x[0], x[1], dim == 3 ? x[2] : *options.known_height};
+  if (!fix.position.allFinite()) {
+    fix.why = "Nelder-Mead diverged";
+    return fix;
+  }
+  return finish(std::move(fix), ranges, options);
+}
+
+const char* range_fix_status_word(RangeFixStatus status) {
+  switch (status) {
+    case RangeFixStatus::kOk: return "ok";
+    case RangeFixStatus::kTooFew: return "too_few";
+    case RangeFixStatus::kBadRange: return "bad_range";
+    case RangeFixStatus::kCoplanar: return "coplanar";
+    case RangeFixStatus::kCollinear: return "collinear";
+    case RangeFixStatus::kTooMany: return "too_many";
+    case RangeFixStatus::kFailed: break;
+  }
+  return "failed";
 }
 
 }  // namespace ips

@@ -55,6 +55,23 @@ TEST(Multilateration, CoplanarAnchorsNeedTheTagsHeight) {
   EXPECT_LT((ls.position - tag).norm(), 1e-6);
 }
 
+TEST(Multilateration, CoplanarAnchorsAndAZoneRangeOnOneSideSolveIn3DNeverTheMirror) {
+  const std::vector<Eigen::Vector3d> anchors = {{0, 0, 2.5}, {6, 0, 2.5}, {6, 4, 2.5}, {0, 4, 2.5}, {3, -1, 2.5}};
+  const Eigen::Vector3d tag(2.0, 1.5, 1.3);
+  const auto ranges = exact_ranges(anchors, tag);
+  // Started on the tag's side, plain least squares would converge: refused all the same.
+  const RangeFix refused = fix_least_squares(ranges, {}, Eigen::Vector3d(2, 1, 1));
+  EXPECT_FALSE(refused.ok);
+  EXPECT_EQ(refused.status, RangeFixStatus::kCoplanar);
+  EXPECT_STREQ(range_fix_status_word(refused.status), "coplanar");
+  RangeSolveOptions below;
+  below.z_range = std::make_pair(0.0, 2.4);
+  for (const RangeFix& fix : {fix_least_squares(ranges, below), fix_nelder_mead(ranges, below)}) {
+    ASSERT_TRUE(fix.ok) << fix.why;
+    EXPECT_LT((fix.position - tag).norm(), 1e-4) << fix.position.transpose();
+  }
+}
+
 TEST(Multilateration, LeastSquaresCovarianceIsTheHandComputedOne) {
   // Six anchors 5 m from the tag along +-x, +-y, +-z, sigma 0.1 m: J^T W J = 2 / sigma^2 I, so
   // the covariance is sigma^2 / 2 = 0.005 m^2 on each axis and nothing across.
@@ -90,6 +107,10 @@ TEST(Multilateration, PetkovicSimulationErrorsAsPublished) {
     for (auto& r : ranges) r.range_m += std::clamp(noise(rng), -0.1, 0.1);
     const RangeFix fix = fix_least_squares(ranges, options);
     ASSERT_TRUE(fix.ok) << fix.why;
+    // Petković's own minimiser (Nelder-Mead on the same F) finds the same minimum.
+    const RangeFix nm = fix_nelder_mead(ranges, options);
+    ASSERT_TRUE(nm.ok) << nm.why;
+    EXPECT_LT((nm.position - fix.position).norm(), 1e-3);
     const Eigen::Vector2d e = (fix.position - tag).head<2>();
     errors.push_back(e.norm());
     nees += e.dot(fix.covariance.topLeftCorner<2, 2>().inverse() * e);
@@ -152,6 +173,7 @@ TEST(Multilateration, BadRangesAreNamedNotSolved) {
   EXPECT_NE(fix_least_squares(ranges).why.find("range 4"), std::string::npos);
   const RangeFix few = fix_least_squares(std::span(ranges).first(3));
   EXPECT_FALSE(few.ok);
+  EXPECT_EQ(few.status, RangeFixStatus::kTooFew);
   EXPECT_NE(few.why.find("at least 4"), std::string::npos) << few.why;
 }
 

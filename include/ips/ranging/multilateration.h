@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -24,9 +25,14 @@ struct RangeToAnchor {
   double sigma_m = 0.1;                              ///< 1-sigma of the range (m), > 0
 };
 
+/// Why a fix failed, as one word for files and scripts (range_fix_status_word).
+enum class RangeFixStatus { kOk, kTooFew, kBadRange, kCoplanar, kCollinear, kTooMany, kFailed };
+const char* range_fix_status_word(RangeFixStatus status);  // ok, too_few, bad_range, coplanar, ...
+
 /// A position solved from ranges.
 struct RangeFix {
   bool ok = false;
+  RangeFixStatus status = RangeFixStatus::kFailed;
   std::string why;  ///< when !ok: what made it unsolvable (too few references, all coplanar, ...)
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   /// 1-sigma uncertainty of `position` (m^2) from the ranges' sigmas and the geometry. A fixed
@@ -53,6 +59,10 @@ struct RangeSolveOptions {
   /// height (a common installation) cannot tell above from below, nor, with every 4-subset
   /// coplanar, be solved in 3-D at all.
   std::optional<double> known_height;
+  /// Otherwise, the heights the tag can be at (least squares and Nelder-Mead only): with
+  /// anchors in one plane and the range on one side of it, the mirror image is excluded and
+  /// the fix is solved in 3-D.
+  std::optional<std::pair<double, double>> z_range;
   /// Least squares: ranges with a residual beyond this many sigmas weigh less (Huber loss);
   /// 0 = plain least squares, as Petković et al.
   double huber_sigmas = 2.0;
@@ -69,5 +79,10 @@ RangeFix fix_from_subsets(std::span<const RangeToAnchor> ranges, SubsetVote vote
 /// (J^T W J)^-1 at the solution.
 RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options = {},
                            const std::optional<Eigen::Vector3d>& initial = std::nullopt);
+
+/// Petković et al.'s own method: F = sum_i (|p_i - p| - d_i)^2 (unweighted) minimised by
+/// Nelder-Mead (NLopt LN_NELDERMEAD), started as fix_least_squares. Covariance as there.
+RangeFix fix_nelder_mead(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options = {},
+                         const std::optional<Eigen::Vector3d>& initial = std::nullopt);
 
 }  // namespace ips
