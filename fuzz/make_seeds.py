@@ -139,6 +139,16 @@ def main():
     put("subscription", "subscribe_ids_psk.bin", req(all_=False, ids=(5,), psk=b"lab secret"))
     put("subscription", "reply_challenge.bin", b"IPSA" + bytes([1, 1, 0, 0]) + struct.pack("<HH", 0, 0) + cookie)
     put("subscription", "subnet.txt", "192.168.1.0/24")
+    def firing(tag=7, n=1, t=1800000000000000000, refs=((1, 2.5, 0.05), (2, 3.0, 0.0)), odo=None, psk=b""):
+        b = b"IPSR" + struct.pack("<BBHIIqHHffI", 1, 1 if odo else 0, len(refs), tag, n, t, 12, 0, *(odo or (0.0, 0.0)), 0)
+        b += b"".join(struct.pack("<Iff", r, d, s) for r, d, s in refs)
+        if psk:
+            b += hmac.new(psk, b, hashlib.sha256).digest()
+        return b
+    put("range_datagram", "two_anchors.bin", firing())
+    put("range_datagram", "mobile_reference_odometry.bin",
+        firing(n=2, refs=((1, 2.5, 0.05), (2 | 0x80000000, 1.2, 0.1), (9, 4.0, 0.05)), odo=(0.3, 0.02)))
+    put("range_datagram", "no_time_psk.bin", firing(tag=2, n=5, t=0, psk=b"lab secret"))
     for i, line in enumerate(["GET /", "GET /status.json", "GET /events", "GET /assets/app.js",
                               "GET /camera/red.jpg", "GET /camera/white.json", "POST /", "GET /../etc/passwd",
                               "HEAD /status.json"]):

@@ -20,7 +20,7 @@ LAYERS = [
     ["mapping", "ranging"],  # camera -> world; positions from ranges
     ["fusion"],
     ["output"],
-    ["body", "calib", "collect", "survey", "web"],
+    ["body", "calib", "collect", "input", "survey", "web"],  # input: network inputs of the daemon (ranges)
     ["sim"],
     ["config"],
 ]
