@@ -83,6 +83,12 @@ def tj_small(jpeg, w, h, gray, samp, progressive, quality):
 def main():
     copy("config", "config/ipsd.yaml", "config/demo.yaml")
     copy("scene", "config/scenes/ou2023.yaml", "config/scenes/calib_lenses.yaml", "config/scenes/survey_lab.yaml")
+    put("scene", "ranging.yaml",
+        "markers:\n  - {id: 1, height: 0.1, trajectory: {type: circle, center: [3, 2], radius: 0.45, speed: 0.2}}\n"
+        "  - {id: 2, x: 1, y: 1}\nanchors:\n  - {id: 1, position: [0, 0, 2.5], sigma: 0.05, bias: 0.02}\n"
+        "  - {id: 2, position: [6, 0, 2], max_range: 8, dropout: 0.1}\n"
+        "nlos_zones:\n  - {min: [4, 3, 0], max: [5, 4, 2.5], bias: 0.5}\n"
+        "tags:\n  - {id: 7, marker: 1, height: 0.2, range_tags: true}\n  - {id: 8, marker: 2}\n")
     copy("intrinsics", "calib_data/ou2023/intrinsics_red.yaml", "config/scenes/lenses/pinhole_wide.yaml")
     put("intrinsics", "opencv_fisheye.yaml",
         "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n"

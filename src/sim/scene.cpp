@@ -13,103 +13,18 @@
 
 #include "ips/core/error.h"
 #include "ips/detect/detector.h"
+#include "sim/scene_reader.h"
 
 namespace ips::sim {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-// Reads typed values from a YAML node and reports errors as "file:line: key: problem".
-class Reader {
- public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& key, const std::string& what) const {
-    const int line = node.IsDefined() ? node.Mark().line + 1 : 0;
-    throw InputError(file_ + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + key + ": " + what);
-  }
-
-  double number(const YAML::Node& parent, const std::string& path, const char* key, double def,
-                bool required = false) const {
-    const YAML::Node n = parent[key];
-    if (!n) {
-      if (required) fail(parent, path + key, "missing");
-      return def;
-    }
-    return finite(n, path + key);
-  }
-
-  /// A scalar that must be a finite number; errors name `key` and the node's line.
-  double finite(const YAML::Node& n, const std::string& key) const {
-    double v = 0.0;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(n, key, "not a number");
-    }
-    if (!std::isfinite(v)) fail(n, key, "not finite");
-    return v;
-  }
-
-  /// An optional integer in [lo, hi]. Range first: converting a double outside the target
-  /// type's range is undefined (found by fuzz_scene: a 50-digit floor.seed).
-  double integer(const YAML::Node& parent, const std::string& path, const char* key, double def, double lo,
-                 double hi) const {
-    const double v = number(parent, path, key, def);
-    if (!(v >= lo && v <= hi) || v != std::floor(v)) {
-      std::ostringstream range;
-      range << std::fixed << std::setprecision(0) << lo << ".." << hi;
-      fail(parent[key], path + key, "must be an integer in " + range.str());
-    }
-    return v;
-  }
-
-  std::vector<double> numbers(const YAML::Node& parent, const std::string& path, const char* key, std::size_t min_n,
-                              std::size_t max_n) const {
-    const YAML::Node n = parent[key];
-    if (!n) fail(parent, path + key, "missing");
-    if (!n.IsSequence() || n.size() < min_n || n.size() > max_n) {
-      fail(n, path + key,
-           "expected a list of " + std::to_string(min_n) +
-               (max_n != min_n ? ".." + std::to_string(max_n) : std::string()) + " numbers");
-    }
-    std::vector<double> out;
-    for (const auto& v : n) out.push_back(finite(v, path + key));
-    return out;
-  }
-
-  std::string text(const YAML::Node& parent, const std::string& path, const char* key, const std::string& def) const {
-    const YAML::Node n = parent[key];
-    if (!n) return def;
-    if (!n.IsScalar()) fail(n, path + key, "expected a string");
-    return n.as<std::string>();
-  }
-
-  void only_keys(const YAML::Node& map, const std::string& path, std::initializer_list<const char*> keys) const {
-    if (!map.IsMap()) fail(map, path.empty() ? "scene" : path, "expected a mapping");
-    for (const auto& kv : map) {
-      // A list or mapping as a key has no string form (found by fuzz_scene).
-      if (!kv.first.IsScalar()) fail(kv.first, path.empty() ? "scene" : path, "a key must be a plain word");
-      const auto k = kv.first.as<std::string>();
-      bool ok = false;
-      for (const char* allowed : keys) ok = ok || k == allowed;
-      if (!ok) {
-        std::string list;
-        for (const char* allowed : keys) list += (list.empty() ? "" : ", ") + std::string(allowed);
-        fail(kv.first, path + k, "unknown key (expected one of: " + list + ")");
-      }
-    }
-  }
-
- private:
-  std::string file_;
-};
-
 Eigen::Vector2d vec2(const std::vector<double>& v) { return {v[0], v[1]}; }
 
 // A placements trajectory: poses [x, y], [x, y, height] or [x, y, height, yaw_deg] (the
 // marker's own height / yaw_deg where left out) and the control file (relative to the scene).
-void read_placements(const Reader& r, const YAML::Node& n, const std::string& path,
+void read_placements(const SceneReader& r, const YAML::Node& n, const std::string& path,
                      const std::filesystem::path& scene_dir, const MarkerPose& start, Trajectory& t) {
   const std::string control = r.text(n, path, "control", "");
   if (control.empty()) r.fail(n, path + "control", "missing (the file that holds the index)");
@@ -133,7 +48,7 @@ void read_placements(const Reader& r, const YAML::Node& n, const std::string& pa
   }
 }
 
-Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::string& path,
+Trajectory read_trajectory(const SceneReader& r, const YAML::Node& n, const std::string& path,
                            const std::filesystem::path& scene_dir, const MarkerPose& start) {
   r.only_keys(n, path,
               {"type", "speed", "center", "radius", "clockwise", "from", "to", "points", "heading", "control", "pause",
@@ -189,8 +104,8 @@ Trajectory read_trajectory(const Reader& r, const YAML::Node& n, const std::stri
 
 // bodies: each a body definition (ips/body/body.h) plus its start pose (x, y, height of the origin,
 // yaw_deg, roll_deg, pitch_deg) and an optional trajectory; its markers join scene.markers.
-void read_bodies(const Reader& r, const YAML::Node& bs, const std::filesystem::path& scene_dir, int dictionary_size,
-                 Scene& scene) {
+void read_bodies(const SceneReader& r, const YAML::Node& bs, const std::filesystem::path& scene_dir,
+                 int dictionary_size, Scene& scene) {
   if (!bs.IsSequence()) r.fail(bs, "bodies", "expected a list");
   const BodyFail fail = [&](const YAML::Node& at, const std::string& key, const std::string& what) {
     r.fail(at, key, what);
@@ -256,8 +171,9 @@ Scene Scene::load(const std::filesystem::path& path) {
   } catch (const YAML::Exception& e) {
     throw InputError(file + ":" + std::to_string(e.mark.line + 1) + ": YAML error: " + e.msg);
   }
-  const Reader r(file);
-  r.only_keys(root, "", {"dictionary", "floor", "render", "cameras", "markers", "bodies"});
+  const SceneReader r(file);
+  r.only_keys(root, "",
+              {"dictionary", "floor", "render", "cameras", "markers", "bodies", "anchors", "nlos_zones", "tags"});
   Scene scene;
   scene.dictionary = r.text(root, "", "dictionary", scene.dictionary);
   try {
@@ -306,11 +222,12 @@ Scene Scene::load(const std::filesystem::path& path) {
     s.seed = static_cast<unsigned>(r.integer(g, "render.", "seed", s.seed, 0, 4294967295.0));
   }
 
+  // A scene of ranges only (anchors, no cameras) is allowed; one with neither simulates nothing.
   const YAML::Node cams = root["cameras"];
-  if (!cams || !cams.IsSequence() || cams.size() == 0) {
+  if (cams ? !cams.IsSequence() || cams.size() == 0 : !root["anchors"]) {
     r.fail(cams ? cams : root, "cameras", "expected a non-empty list of cameras");
   }
-  for (std::size_t i = 0; i < cams.size(); ++i) {
+  for (std::size_t i = 0; cams && i < cams.size(); ++i) {
     const YAML::Node c = cams[i];
     const std::string p = "cameras[" + std::to_string(i) + "].";
     r.only_keys(c, p, {"name", "intrinsics", "position", "rotation_deg"});
@@ -371,6 +288,7 @@ Scene Scene::load(const std::filesystem::path& path) {
     }
   }
   if (const YAML::Node bs = root["bodies"]) read_bodies(r, bs, path.parent_path(), dictionary_size, scene);
+  read_ranging(r, root, scene);
   return scene;
 }
 

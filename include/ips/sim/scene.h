@@ -8,6 +8,8 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -108,6 +110,45 @@ struct RenderSettings {
   unsigned seed = 1;          ///< noise seed
 };
 
+/// A ranging anchor of the scene (UWB / ultrasound, docs/simulator.md "Ranges"): every range
+/// to it is the true distance + its bias + Gaussian noise (sigma) + the bias of every NLOS zone
+/// the straight line crosses; beyond max_range, or with probability `dropout`, there is none.
+struct SceneAnchor {
+  int id = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double sigma = 0.05;      ///< m
+  double bias = 0.0;        ///< m, added to every range (an uncalibrated antenna delay)
+  double max_range = 50.0;  ///< m
+  double dropout = 0.0;     ///< probability that a firing has no range to it
+};
+
+/// An obstacle that delays ranges through it (non-line-of-sight): an axis-aligned box.
+struct NlosZone {
+  Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
+  double bias = 0.3;  ///< m, added to a range whose straight line crosses the box (> 0)
+};
+
+/// A ranging tag carried by a marker: at the marker's centre, `height` above it.
+struct SceneTag {
+  int id = 0;
+  int marker = 0;       ///< the carrying marker's id
+  double height = 0.0;  ///< m above the marker's centre
+  /// Ranges to other tags (mobile references) within max_range, with this sigma; false: anchors only.
+  bool range_tags = false;
+  double sigma = 0.05;
+  double max_range = 50.0;
+};
+
+/// One simulated range of a firing, with its truth.
+struct SimRange {
+  int reference = 0;  ///< anchor id, or tag id when is_tag
+  bool is_tag = false;
+  double range = 0;                                              ///< measured, m
+  double sigma = 0;                                              ///< the sigma it was drawn with, m
+  double true_range = 0;                                         ///< exact distance, m
+  Eigen::Vector3d reference_position = Eigen::Vector3d::Zero();  ///< exact, at the firing time
+};
+
 class Scene {
  public:
   std::string dictionary = "DICT_4X4_100";
@@ -116,6 +157,9 @@ class Scene {
   std::vector<SceneCamera> cameras;
   std::vector<SceneMarker> markers;
   std::vector<SceneBody> bodies;
+  std::vector<SceneAnchor> anchors;
+  std::vector<NlosZone> nlos_zones;
+  std::vector<SceneTag> tags;
 
   /// Loads and validates a scene file. Intrinsics paths are relative to the scene file.
   /// Throws ips::InputError naming the file, line and key.
@@ -127,6 +171,13 @@ class Scene {
   BodyPose body_pose_at(std::size_t index, double t) const;
   /// Pose of the marker with this id; throws std::out_of_range if absent.
   MarkerPose marker_pose(int id, double t) const;
+
+  /// Exact position of tag `index` (into `tags`) at scene time t; nullopt while its marker is
+  /// picked up.
+  std::optional<Eigen::Vector3d> tag_position(std::size_t index, double t) const;
+  /// The ranges tag `index` measures when it fires at scene time t (anchors first, in file
+  /// order, then other tags); `rng` draws the noise and the dropouts.
+  std::vector<SimRange> fire_tag(std::size_t index, double t, std::mt19937_64& rng) const;
 
   /// Index of the camera called `name`; throws ips::InputError listing the names if absent.
   std::size_t camera_index(const std::string& name) const;
