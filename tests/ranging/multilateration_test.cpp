@@ -127,6 +127,47 @@ TEST(Multilateration, PetkovicSimulationErrorsAsPublished) {
   EXPECT_NEAR(nees / 1000, 2.0, 0.3);
 }
 
+// Petković et al.'s static test, in simulation: a beacon that does not move, fixed again and
+// again from fresh Gaussian ranges. An efficient estimator's spread is the Cramér-Rao bound,
+// computed here by hand from the geometry: (sum_i u_i u_i^T / sigma^2)^-1, u_i the horizontal
+// part of the unit vector from anchor i to the beacon (the height is known).
+TEST(Multilateration, StaticSpreadIsTheCramerRaoBound) {
+  const std::vector<Eigen::Vector3d> anchors = {{0, 0, 2.5}, {6, 0, 2.5}, {6, 4, 2.5}, {0, 4, 2.5}};
+  const Eigen::Vector3d tag(2.0, 1.2, 1.3);
+  const double sigma = 0.1 / 3;
+  Eigen::Matrix2d information = Eigen::Matrix2d::Zero();
+  for (const auto& a : anchors) {
+    const Eigen::Vector2d u = (tag - a).head<2>() / (tag - a).norm();
+    information += u * u.transpose() / (sigma * sigma);
+  }
+  const Eigen::Matrix2d crb = information.inverse();
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, sigma);
+  RangeSolveOptions options;
+  options.known_height = 1.3;
+  options.huber_sigmas = 0;
+  const int n = 2000;
+  std::vector<Eigen::Vector2d> fixes;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int k = 0; k < n; ++k) {
+    auto ranges = exact_ranges(anchors, tag, sigma);
+    for (auto& r : ranges) r.range_m += noise(rng);
+    const RangeFix fix = fix_least_squares(ranges, options);
+    ASSERT_TRUE(fix.ok) << fix.why;
+    fixes.push_back(fix.position.head<2>());
+    mean += fixes.back() / n;
+  }
+  Eigen::Matrix2d spread = Eigen::Matrix2d::Zero();
+  for (const auto& f : fixes) spread += (f - mean) * (f - mean).transpose() / (n - 1);
+  const double ratio = std::sqrt(spread.trace() / crb.trace());
+  std::printf("static beacon: spread %.2f cm rms, Cramer-Rao bound %.2f cm, ratio %.3f, bias %.2f mm\n",
+              100 * std::sqrt(spread.trace()), 100 * std::sqrt(crb.trace()), ratio,
+              1e3 * (mean - tag.head<2>()).norm());
+  EXPECT_LT(ratio, 1.1);   // the bound
+  EXPECT_GT(ratio, 0.95);  // below the bound would mean the test's noise is not what it says
+  EXPECT_LT((mean - tag.head<2>()).norm(), 0.002);
+}
+
 // Albayati & Kurt (2019), Table 1: with more references than four, every 4-subset solved and
 // the per-axis median taken beats the mean, and improves with more references. Here one range
 // of every fix is non-line-of-sight (+0.5 m), the others have 2 cm of noise.
