@@ -53,7 +53,7 @@ void robust(benchmark::State& s, bool p) {
 }
 void lsq(benchmark::State& s, bool p) {
   run(s, p, [](const auto& f, auto o) {
-    o.huber_sigmas = 0;
+    o.robust_sigmas = 0;
     return ips::fix_least_squares(f, o);
   });
 }

@@ -28,7 +28,7 @@ ips::RangeFix solve(const Options& o, const ips::RangeFixInput& fix) {
   if (o.method == "median4") return ips::fix_from_subsets(fix.ranges, ips::SubsetVote::kMedian, options);
   if (o.method == "mean4") return ips::fix_from_subsets(fix.ranges, ips::SubsetVote::kMean, options);
   if (o.method == "nelder-mead") return ips::fix_nelder_mead(fix.ranges, options);
-  if (o.method == "lsq") options.huber_sigmas = 0;  // plain weighted least squares
+  if (o.method == "lsq") options.robust_sigmas = 0;  // plain weighted least squares
   return ips::fix_least_squares(fix.ranges, options);
 }
 
@@ -78,9 +78,10 @@ IPS_REGISTER_COMMAND(
           ->required()
           ->check(CLI::ExistingFile);
       sub.add_option("--out", o->out, "fixes.csv: fix,x,y,z,cxx,cxy,cxz,cyy,cyz,czz,n,status")->required();
-      sub.add_option("--method", o->method,
-                     "robust (Huber least squares) | lsq | median4 | mean4 (Albayati & Kurt) | "
-                     "nelder-mead (Petkovic et al.)")
+      sub.add_option(
+             "--method", o->method,
+             "robust (Cauchy least squares, contradicted ranges left out) | lsq | median4 | mean4 (Albayati & Kurt) | "
+             "nelder-mead (Petkovic et al.)")
           ->check(CLI::IsMember({"robust", "lsq", "median4", "mean4", "nelder-mead"}))
           ->capture_default_str();
       auto* height = sub.add_option("--height", o->height, "the tags' known height (m): 2-D fixes");

@@ -128,7 +128,7 @@ void for_each_subset(std::size_t n, std::size_t k, F&& f) {
   }
 }
 
-// The residual of one range, in sigmas (so that a Huber threshold is in sigmas too).
+// The residual of one range, in sigmas (so that the robust loss's scale is in sigmas too).
 struct RangeResidual {
   RangeToAnchor r;
   template <typename T>
@@ -257,16 +257,17 @@ Eigen::Vector3d starting_point(std::span<const RangeToAnchor> ranges, const Rang
 
 }  // namespace
 
-RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
-                           const std::optional<Eigen::Vector3d>& initial) {
+namespace {
+
+// One weighted least-squares solve from `start` (Cauchy loss at robust_sigmas when > 0).
+RangeFix solve_least_squares(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
+                             const Eigen::Vector3d& start) {
   RangeFix fix;
-  if (!check_input(ranges, options, fix)) return fix;
-  const Eigen::Vector3d start = starting_point(ranges, options, initial);
   double xy[2] = {start.x(), start.y()};
   double z[1] = {start.z()};
   ceres::Problem problem;
   for (const auto& r : ranges) {
-    ceres::LossFunction* loss = options.huber_sigmas > 0 ? new ceres::HuberLoss(options.huber_sigmas) : nullptr;
+    ceres::LossFunction* loss = options.robust_sigmas > 0 ? new ceres::CauchyLoss(options.robust_sigmas) : nullptr;
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RangeResidual, 1, 2, 1>(new RangeResidual{r}), loss, xy,
                              z);
   }
@@ -293,6 +294,52 @@ RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSol
     return fix;
   }
   return finish(std::move(fix), ranges, options);
+}
+
+// Sum of squared residuals in sigmas, and the largest one.
+std::pair<double, double> normalised_residuals(std::span<const RangeToAnchor> ranges, const Eigen::Vector3d& p) {
+  double sum = 0, worst = 0;
+  for (const auto& r : ranges) {
+    const double e = std::abs((r.anchor - p).norm() - r.range_m) / r.sigma_m;
+    sum += e * e;
+    worst = std::max(worst, e);
+  }
+  return {sum, worst};
+}
+
+}  // namespace
+
+RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,
+                           const std::optional<Eigen::Vector3d>& initial) {
+  RangeFix fix;
+  if (!check_input(ranges, options, fix)) return fix;
+  fix = solve_least_squares(ranges, options, starting_point(ranges, options, initial));
+  if (!fix.ok || !(options.robust_sigmas > 0) || !(options.reject_sigmas > 0)) return fix;
+  // A range the others contradict (non-line-of-sight: a reflection, a body in the way) pulls
+  // even a robust loss where the geometry is weak. While some range is off by more than
+  // reject_sigmas and enough remain to check the rest (two more than the unknowns), the range
+  // whose removal leaves the most consistent set is left out.
+  const std::size_t unknowns = options.known_height ? 2 : 3;
+  std::vector<RangeToAnchor> used(ranges.begin(), ranges.end());
+  while (used.size() >= unknowns + 3 && normalised_residuals(used, fix.position).second > options.reject_sigmas) {
+    RangeFix best;
+    std::size_t best_i = 0;
+    double best_cost = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < used.size(); ++i) {
+      std::vector<RangeToAnchor> rest = used;
+      rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
+      RangeFix f = solve_least_squares(rest, options, fix.position);
+      if (!f.ok) continue;
+      const double cost = normalised_residuals(rest, f.position).first;
+      if (cost < best_cost) best_cost = cost, best = std::move(f), best_i = i;
+    }
+    if (!best.ok) break;
+    used.erase(used.begin() + static_cast<std::ptrdiff_t>(best_i));
+    const int rejected = fix.ranges_rejected + 1;
+    fix = std::move(best);
+    fix.ranges_rejected = rejected;
+  }
+  return fix;
 }
 
 RangeFix fix_nelder_mead(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options,

@@ -98,7 +98,7 @@ TEST(Multilateration, PetkovicSimulationErrorsAsPublished) {
   std::normal_distribution<double> noise(0.0, 0.1 / 3);  // 3 sigma at 10 cm, truncated there
   RangeSolveOptions options;
   options.known_height = 1.3;
-  options.huber_sigmas = 0;  // plain least squares, as the paper
+  options.robust_sigmas = 0;  // plain least squares, as the paper
   std::vector<double> errors;
   double nees = 0;
   for (int trial = 0; trial < 1000; ++trial) {
@@ -145,7 +145,7 @@ TEST(Multilateration, StaticSpreadIsTheCramerRaoBound) {
   std::normal_distribution<double> noise(0.0, sigma);
   RangeSolveOptions options;
   options.known_height = 1.3;
-  options.huber_sigmas = 0;
+  options.robust_sigmas = 0;
   const int n = 2000;
   std::vector<Eigen::Vector2d> fixes;
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
@@ -216,6 +216,61 @@ TEST(Multilateration, BadRangesAreNamedNotSolved) {
   EXPECT_FALSE(few.ok);
   EXPECT_EQ(few.status, RangeFixStatus::kTooFew);
   EXPECT_NE(few.why.find("at least 4"), std::string::npos) << few.why;
+}
+
+}  // namespace
+}  // namespace ips
+
+namespace ips {
+namespace {
+
+// Albayati & Kurt's protocol rebuilt: a robot at 1 m ranges to 4 fixed references at the corners
+// of an 8 x 6 m room at 2.8, 0.4, 2.2 and 1.2 m and to 2 assisting robots (mobile references,
+// beacons at 0.3 m) somewhere on the floor; 400 fixes. The default estimator (robust least
+// squares) against the paper's own per-axis median of the 4-subsets, on the same ranges.
+struct Percentiles {
+  double p50, p95;
+};
+Percentiles percentiles(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return {v[v.size() / 2], v[static_cast<std::size_t>(0.95 * static_cast<double>(v.size()))]};
+}
+
+TEST(Multilateration, TheDefaultEstimatorBeatsTheFaithfulMedianOfSubsets) {
+  const auto compare = [](double sigma, double nlos, const char* name) -> std::pair<Percentiles, Percentiles> {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    std::vector<double> robust, median4;
+    for (int trial = 0; trial < 400; ++trial) {
+      std::vector<Eigen::Vector3d> refs = {{0, 0, 2.8}, {8, 0, 0.4}, {8, 6, 2.2}, {0, 6, 1.2}};
+      for (int k = 0; k < 2; ++k) refs.push_back({8 * u(rng), 6 * u(rng), 0.3});
+      const Eigen::Vector3d tag(1 + 6 * u(rng), 1 + 4 * u(rng), 1.0);
+      auto ranges = exact_ranges(refs, tag, std::max(sigma, 0.01));
+      for (auto& r : ranges) r.range_m += sigma * noise(rng);
+      if (nlos > 0) ranges[static_cast<std::size_t>(trial) % ranges.size()].range_m += nlos;
+      const RangeFix a = fix_least_squares(ranges), b = fix_from_subsets(ranges, SubsetVote::kMedian);
+      if (!a.ok || !b.ok) {
+        ADD_FAILURE() << name << ", fix " << trial << ": " << a.why << b.why;
+        continue;
+      }
+      robust.push_back((a.position - tag).norm());
+      median4.push_back((b.position - tag).norm());
+    }
+    const Percentiles r = percentiles(robust), m = percentiles(median4);
+    std::printf("Albayati & Kurt's protocol, %s: default p50 %.2f p95 %.2f cm; median4 p50 %.2f p95 %.2f cm\n", name,
+                100 * r.p50, 100 * r.p95, 100 * m.p50, 100 * m.p95);
+    return std::pair{r, m};
+  };
+  const auto [exact_r, exact_m] = compare(0.0, 0.0, "exact ranges");
+  EXPECT_LT(exact_r.p95, 1e-6);
+  EXPECT_LT(exact_m.p95, 1e-6);
+  const auto [noisy_r, noisy_m] = compare(0.02, 0.0, "2 cm ranges");
+  EXPECT_LE(noisy_r.p50, 0.75 * noisy_m.p50);
+  EXPECT_LE(noisy_r.p95, 0.75 * noisy_m.p95);
+  const auto [nlos_r, nlos_m] = compare(0.02, 0.5, "2 cm ranges, one +0.5 m");
+  EXPECT_LE(nlos_r.p50, 0.5 * nlos_m.p50);
+  EXPECT_LE(nlos_r.p95, 0.5 * nlos_m.p95);
 }
 
 }  // namespace

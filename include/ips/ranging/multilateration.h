@@ -6,7 +6,8 @@
 //    first one, eq. 9: x = M^-1 b), and the position taken as the per-axis median (or mean) of
 //    the candidates; their Table 1: the median beats the mean.
 //  - Petković et al. (2016): the position minimising F = sum_i (|p_i - p| - d_i)^2. Here
-//    weighted by each range's sigma, optionally robust (Huber), solved by Ceres from the
+//    weighted by each range's sigma, optionally robust (Cauchy loss, and ranges the others
+//    contradict left out), solved by Ceres from the
 //    subsets' median, with the covariance of the solution (J^T W J)^-1.
 #include <optional>
 #include <span>
@@ -40,7 +41,8 @@ struct RangeFix {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   double rms_residual_m = 0;  ///< RMS of |anchor - position| - range over the ranges used
   int ranges_used = 0;
-  int subsets_solved = 0;  ///< the subset solver: 4-subsets (or 3-subsets at a known height) that gave a candidate
+  int ranges_rejected = 0;  ///< least squares: ranges left out as contradicted by the others (not in ranges_used)
+  int subsets_solved = 0;   ///< the subset solver: 4-subsets (or 3-subsets at a known height) that gave a candidate
 };
 
 /// Albayati & Kurt's eq. (9) for exactly four references: the unique point whose distances
@@ -63,9 +65,13 @@ struct RangeSolveOptions {
   /// anchors in one plane and the range on one side of it, the mirror image is excluded and
   /// the fix is solved in 3-D.
   std::optional<std::pair<double, double>> z_range;
-  /// Least squares: ranges with a residual beyond this many sigmas weigh less (Huber loss);
-  /// 0 = plain least squares, as Petković et al.
-  double huber_sigmas = 2.0;
+  /// Least squares: ranges with a residual beyond this many sigmas weigh less and less (a
+  /// Cauchy loss at this scale); 0 = plain least squares, as Petković et al.
+  double robust_sigmas = 2.0;
+  /// With the robust loss: while a range is off by more than this many sigmas and at least
+  /// three more ranges than unknowns are left, the range whose removal leaves the most
+  /// consistent set is left out (RangeFix::ranges_rejected); 0 = never.
+  double reject_sigmas = 4.0;
 };
 
 /// Every 4-subset (3-subset at a known height) solved in closed form, combined per axis by
