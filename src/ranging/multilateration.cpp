@@ -328,10 +328,14 @@ RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSol
     for (std::size_t i = 0; i < used.size(); ++i) {
       std::vector<RangeToAnchor> rest = used;
       rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
-      RangeFix f = solve_least_squares(rest, options, fix.position);
-      if (!f.ok) continue;
-      const double cost = normalised_residuals(rest, f.position).first;
-      if (cost < best_cost) best_cost = cost, best = std::move(f), best_i = i;
+      // From where the contradicted solve ended and afresh from the rest's subsets: the first
+      // may sit in a wrong valley the bad range dug (a near-mirror of the true position).
+      for (const Eigen::Vector3d& start : {fix.position, starting_point(rest, options, std::nullopt)}) {
+        RangeFix f = solve_least_squares(rest, options, start);
+        if (!f.ok) continue;
+        const double cost = normalised_residuals(rest, f.position).first;
+        if (cost < best_cost) best_cost = cost, best = std::move(f), best_i = i;
+      }
     }
     if (!best.ok) break;
     used.erase(used.begin() + static_cast<std::ptrdiff_t>(best_i));
