@@ -227,8 +227,7 @@ namespace {
 // Albayati & Kurt's protocol rebuilt: a robot at 1 m ranges to 4 fixed references at the corners
 // of an 8 x 6 m room at 2.8, 0.4, 2.2 and 1.2 m and to 3 assisting robots (mobile references,
 // beacons at 0.3 m) somewhere on the floor; 2000 fixes. The default estimator (robust least
-// squares) against the paper's own per-axis median of the 4-subsets, on the same ranges. (With 2
-// assisting robots the 2 cm p50 ratio is 0.75, at the limit: docs/ranging.md.)
+// squares) against the paper's own per-axis median of the 4-subsets, on the same ranges.
 struct Percentiles {
   double p50, p95;
 };
@@ -238,14 +237,15 @@ Percentiles percentiles(std::vector<double> v) {
 }
 
 TEST(Multilateration, TheDefaultEstimatorBeatsTheFaithfulMedianOfSubsets) {
-  const auto compare = [](double sigma, double nlos, const char* name) -> std::pair<Percentiles, Percentiles> {
+  const auto compare = [](double sigma, double nlos, const char* name,
+                          int robots = 3) -> std::pair<Percentiles, Percentiles> {
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     std::normal_distribution<double> noise(0.0, 1.0);
     std::vector<double> robust, median4;
     for (int trial = 0; trial < 2000; ++trial) {
       std::vector<Eigen::Vector3d> refs = {{0, 0, 2.8}, {8, 0, 0.4}, {8, 6, 2.2}, {0, 6, 1.2}};
-      for (int k = 0; k < 3; ++k) refs.push_back({8 * u(rng), 6 * u(rng), 0.3});
+      for (int k = 0; k < robots; ++k) refs.push_back({8 * u(rng), 6 * u(rng), 0.3});
       const Eigen::Vector3d tag(1 + 6 * u(rng), 1 + 4 * u(rng), 1.0);
       auto ranges = exact_ranges(refs, tag, std::max(sigma, 0.01));
       for (auto& r : ranges) r.range_m += sigma * noise(rng);
@@ -259,8 +259,9 @@ TEST(Multilateration, TheDefaultEstimatorBeatsTheFaithfulMedianOfSubsets) {
       median4.push_back((b.position - tag).norm());
     }
     const Percentiles r = percentiles(robust), m = percentiles(median4);
-    std::printf("Albayati & Kurt's protocol, %s: default p50 %.2f p95 %.2f cm; median4 p50 %.2f p95 %.2f cm\n", name,
-                100 * r.p50, 100 * r.p95, 100 * m.p50, 100 * m.p95);
+    std::printf(
+        "Albayati & Kurt's protocol, %d robots, %s: default p50 %.2f p95 %.2f cm; median4 p50 %.2f p95 %.2f cm\n",
+        robots, name, 100 * r.p50, 100 * r.p95, 100 * m.p50, 100 * m.p95);
     return std::pair{r, m};
   };
   const auto [exact_r, exact_m] = compare(0.0, 0.0, "exact ranges");
@@ -272,6 +273,12 @@ TEST(Multilateration, TheDefaultEstimatorBeatsTheFaithfulMedianOfSubsets) {
   const auto [nlos_r, nlos_m] = compare(0.02, 0.5, "2 cm ranges, one +0.5 m");
   EXPECT_LE(nlos_r.p50, 0.5 * nlos_m.p50);
   EXPECT_LE(nlos_r.p95, 0.5 * nlos_m.p95);
+  // Two assisting robots: the least redundancy at which a range is left out (6 ranges, 3
+  // unknowns), where a bad range can hide unless every candidate is tried from two starts.
+  // (Their 2 cm p50 ratio is 0.75, at the limit: not asserted.)
+  const auto [two_r, two_m] = compare(0.02, 0.5, "2 cm ranges, one +0.5 m", 2);
+  EXPECT_LE(two_r.p50, 0.5 * two_m.p50);
+  EXPECT_LE(two_r.p95, 0.5 * two_m.p95);
 }
 
 }  // namespace
