@@ -162,8 +162,11 @@ TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
   const Run r = run(config("markers:\n  height: 0.0\n  ids:\n    1: {height: 0.15}\n"
                            "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n"),
                     6.0, [](const std::vector<Record>& records) {
+                      // Under the sanitizers a fast-marker record comes about every 15 s (7 in
+                      // 120 s measured): three are enough to check accuracy and order there.
+                      const long wanted = test::kSanitized ? 3 : 10;
                       return std::count_if(records.begin(), records.end(),
-                                           [](const Record& x) { return x.m.id == 1 || x.m.id == 2; }) >= 10;
+                                           [](const Record& x) { return x.m.id == 1 || x.m.id == 2; }) >= wanted;
                     });
   ASSERT_FALSE(r.records.empty()) << r.log;
   expect_per_marker_order(r.records);
