@@ -3,50 +3,21 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
-#include <pthread.h>
-#include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <cerrno>
-#include <cstring>
-#include <stdexcept>
 #include <vector>
 
 #include "ips/core/clock.h"
-#include "ips/core/error.h"
+#include "ips/core/udp_listener.h"
 
 namespace ips {
 
 RangeInput::RangeInput(const RangeInputSettings& settings, const std::string& where, Handler on_firing)
     : admission_(settings, where), on_firing_(std::move(on_firing)) {
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(settings.port);
-  if (::inet_pton(AF_INET, settings.address.c_str(), &addr.sin_addr) != 1)
-    throw InputError(where + ".address: '" + settings.address + "' is not an IPv4 address to listen on");
-  fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd_ < 0) throw std::runtime_error(where + ": socket: " + std::strerror(errno));
-  const int rcvbuf = 1 << 20;
-  ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-  // A reload opens the new input before the old one closes; the port is shared for that moment.
-  const int on = 1;
-  ::setsockopt(fd_, SOL_SOCKET, SO_REUSEPORT, &on, sizeof on);
-  if (::bind(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-    const int err = errno;
-    ::close(fd_);
-    throw InputError(where + ".port: cannot listen on " + settings.address + ":" + std::to_string(settings.port) +
-                     ": " + std::strerror(err));
-  }
-  socklen_t len = sizeof addr;
-  ::getsockname(fd_, reinterpret_cast<sockaddr*>(&addr), &len);
-  port_ = ntohs(addr.sin_port);
-  // The thread takes no signals: ipsd reads SIGTERM/SIGHUP through a signalfd.
-  sigset_t all, old;
-  sigfillset(&all);
-  pthread_sigmask(SIG_BLOCK, &all, &old);
-  thread_ = std::thread([this] { receive_loop(); });
-  pthread_sigmask(SIG_SETMASK, &old, nullptr);
+  fd_ = open_udp_listener(settings.address, settings.port, where);
+  port_ = bound_udp_port(fd_);
+  thread_ = start_thread_without_signals([this] { receive_loop(); });
 }
 
 RangeInput::~RangeInput() {

@@ -2,8 +2,6 @@
 
 #include <arpa/inet.h>
 #include <poll.h>
-#include <pthread.h>
-#include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -17,6 +15,7 @@
 
 #include "ips/core/clock.h"
 #include "ips/core/error.h"
+#include "ips/core/udp_listener.h"
 
 namespace ips {
 
@@ -49,34 +48,10 @@ SubscriptionSink::SubscriptionSink(const OutputConfig& c, const std::string& whe
                        "' is not an IPv4 subnet");
     allow_.push_back(*s);
   }
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(c.port);
-  if (::inet_pton(AF_INET, c.address.c_str(), &addr.sin_addr) != 1)
-    throw InputError(where + ".address: '" + c.address + "' is not an IPv4 address to listen on");
-  fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd_ < 0) throw std::runtime_error(where + ": socket: " + std::strerror(errno));
-  const int rcvbuf = 1 << 20;
-  ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-  // A reload that changes the outputs opens the new sink before the old one closes; the port
-  // is shared between them (same user only) for that moment.
-  const int on = 1;
-  ::setsockopt(fd_, SOL_SOCKET, SO_REUSEPORT, &on, sizeof on);
-  if (::bind(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-    const int err = errno;
-    ::close(fd_);
-    throw InputError(where + ".port: cannot listen on " + c.address + ":" + std::to_string(c.port) + ": " +
-                     std::strerror(err));
-  }
+  fd_ = open_udp_listener(c.address, c.port, where);
   for (auto& s : secrets_) randombytes_buf(s.data(), s.size());
   secret_since_ns_ = monotonic_ns();
-  // The receive thread takes no signals: ipsd reads SIGTERM/SIGHUP through a signalfd, and the
-  // outputs may be opened before it blocks them (a thread with them unblocked would be killed).
-  sigset_t all, old;
-  sigfillset(&all);
-  pthread_sigmask(SIG_BLOCK, &all, &old);
-  thread_ = std::thread([this] { receive_loop(); });
-  pthread_sigmask(SIG_SETMASK, &old, nullptr);
+  thread_ = start_thread_without_signals([this] { receive_loop(); });
 }
 
 SubscriptionSink::~SubscriptionSink() {
