@@ -2,13 +2,12 @@
 #include "ips/mapping/calib_data.h"
 
 #include <array>
-#include <charconv>
-#include <cmath>
 #include <fstream>
 #include <istream>
 #include <map>
 #include <string_view>
 
+#include "ips/core/csv_fields.h"
 #include "ips/core/error.h"
 
 namespace ips {
@@ -16,42 +15,7 @@ namespace {
 
 constexpr std::array<std::string_view, 7> kRequired = {"camera", "xc", "yc", "zc", "xw", "yw", "zw"};
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> split(std::string_view line) {
-  std::vector<std::string_view> fields;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    if (comma == std::string_view::npos) {
-      fields.push_back(trim(line.substr(start)));
-      return fields;
-    }
-    fields.push_back(trim(line.substr(start, comma - start)));
-    start = comma + 1;
-  }
-}
-
 std::string where(const std::string& name, std::size_t line) { return name + ":" + std::to_string(line); }
-
-double parse_number(std::string_view text, const std::string& at, std::string_view column, std::size_t column_index) {
-  const std::string col = "column '" + std::string(column) + "' (" + std::to_string(column_index + 1) + ")";
-  if (text.empty()) throw InputError(at + ": " + col + ": empty value");
-  std::string_view digits = text;
-  if (digits.front() == '+') digits.remove_prefix(1);
-  double value = 0.0;
-  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
-  if (ec == std::errc::result_out_of_range)
-    throw InputError(at + ": " + col + ": value '" + std::string(text) + "' is out of range");
-  if (ec != std::errc() || end != digits.data() + digits.size())
-    throw InputError(at + ": " + col + ": '" + std::string(text) + "' is not a number");
-  if (!std::isfinite(value)) throw InputError(at + ": " + col + ": '" + std::string(text) + "' is not a finite number");
-  return value;
-}
 
 }  // namespace
 
@@ -77,8 +41,8 @@ CalibData parse_calib_csv(std::istream& in, const std::string& name) {
   std::vector<std::string> header;
   while (std::getline(in, line)) {
     ++line_no;
-    if (trim(line).empty()) continue;
-    for (auto field : split(line)) header.emplace_back(field);
+    if (trim_csv_field(line).empty()) continue;
+    for (auto field : split_csv_line(line)) header.emplace_back(field);
     break;
   }
   if (header.empty()) throw InputError(name + ": empty file (expected a header line " + "'camera,xc,yc,zc,xw,yw,zw')");
@@ -101,8 +65,8 @@ CalibData parse_calib_csv(std::istream& in, const std::string& name) {
   std::map<std::string, std::size_t> set_of;
   while (std::getline(in, line)) {
     ++line_no;
-    if (trim(line).empty()) continue;
-    const auto fields = split(line);
+    if (trim_csv_field(line).empty()) continue;
+    const auto fields = split_csv_line(line);
     const std::string at = where(name, line_no);
     if (fields.size() != header.size())
       throw InputError(at + ": " + std::to_string(fields.size()) + " fields, the header has " +
@@ -112,7 +76,8 @@ CalibData parse_calib_csv(std::istream& in, const std::string& name) {
       throw InputError(at + ": column 'camera' (" + std::to_string(col[0] + 1) + "): empty camera name");
     std::array<double, 6> v{};
     for (std::size_t k = 1; k < kRequired.size(); ++k)
-      v[k - 1] = parse_number(fields[col[k]], at, kRequired[k], col[k]);
+      v[k - 1] = parse_csv_number(fields[col[k]], at,
+                                  "column '" + std::string(kRequired[k]) + "' (" + std::to_string(col[k] + 1) + ")");
     auto [it, inserted] = set_of.emplace(camera, data.cameras.size());
     if (inserted) data.cameras.push_back(CalibSet{camera, {}, {}, {}});
     CalibSet& set = data.cameras[it->second];

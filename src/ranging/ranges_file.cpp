@@ -1,6 +1,5 @@
 #include "ips/ranging/ranges_file.h"
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -11,46 +10,10 @@
 #include <nlohmann/json.hpp>
 
 #include "core/map_reader.h"
+#include "ips/core/csv_fields.h"
 #include "ips/core/error.h"
 
 namespace ips {
-namespace {
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> split(std::string_view line) {
-  std::vector<std::string_view> fields;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    if (comma == std::string_view::npos) {
-      fields.push_back(trim(line.substr(start)));
-      return fields;
-    }
-    fields.push_back(trim(line.substr(start, comma - start)));
-    start = comma + 1;
-  }
-}
-
-double parse_number(std::string_view text, const std::string& at, std::string_view column) {
-  const std::string col = "column '" + std::string(column) + "'";
-  if (text.empty()) throw InputError(at + ": " + col + ": empty value");
-  std::string_view digits = text;
-  if (digits.front() == '+') digits.remove_prefix(1);
-  double value = 0.0;
-  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
-  if (ec != std::errc() || end != digits.data() + digits.size())
-    throw InputError(at + ": " + col + ": '" + std::string(text) + "' is not a number");
-  if (!std::isfinite(value)) throw InputError(at + ": " + col + ": '" + std::string(text) + "' is not a finite number");
-  return value;
-}
-
-}  // namespace
-
 AnchorMap load_anchors_yaml(const std::filesystem::path& path) {
   const std::string file = path.string();
   YAML::Node root;
@@ -92,8 +55,8 @@ std::vector<RangeFixInput> parse_ranges_csv(std::istream& in, const std::string&
   std::map<std::string, std::size_t, std::less<>> col;
   while (std::getline(in, line)) {
     ++line_no;
-    if (trim(line).empty()) continue;
-    const auto header = split(line);
+    if (trim_csv_field(line).empty()) continue;
+    const auto header = split_csv_line(line);
     for (std::size_t i = 0; i < header.size(); ++i) {
       if (!kKnown.count(header[i]))
         throw InputError(name + ":" + std::to_string(line_no) + ": unknown column '" + std::string(header[i]) +
@@ -115,22 +78,22 @@ std::vector<RangeFixInput> parse_ranges_csv(std::istream& in, const std::string&
   std::map<std::string, std::size_t, std::less<>> index;
   while (std::getline(in, line)) {
     ++line_no;
-    if (trim(line).empty()) continue;
+    if (trim_csv_field(line).empty()) continue;
     const std::string at = name + ":" + std::to_string(line_no);
-    const auto f = split(line);
+    const auto f = split_csv_line(line);
     if (f.size() != col.size())
       throw InputError(at + ": " + std::to_string(f.size()) + " fields, the header has " + std::to_string(col.size()));
     const auto field = [&](const char* c) -> std::string_view { return f[col.at(c)]; };
     const auto optional_number = [&](const char* c) -> std::optional<double> {
       if (!col.count(c) || field(c).empty()) return std::nullopt;
-      return parse_number(field(c), at, c);
+      return parse_csv_number(field(c), at, "column '" + std::string(c) + "'");
     };
     const std::string fix(field("fix"));
     const std::string reference(field("reference"));
     if (fix.empty()) throw InputError(at + ": column 'fix': empty value");
     if (reference.empty()) throw InputError(at + ": column 'reference': empty value");
     RangeToAnchor r;
-    r.range_m = parse_number(field("range"), at, "range");
+    r.range_m = parse_csv_number(field("range"), at, "column 'range'");
     if (r.range_m < 0) throw InputError(at + ": column 'range': negative");
     r.sigma_m = optional_number("sigma").value_or(default_sigma);
     if (!(r.sigma_m > 0)) throw InputError(at + ": column 'sigma': must be > 0");
