@@ -57,17 +57,22 @@ FusedMarker fuse_marker(std::span<const WorldObservation> obs, const FusionMetho
     wsum = static_cast<double>(obs.size());
   }
 
-  double sin_sum = 0.0, cos_sum = 0.0, dt_sum = 0.0;
+  double sin_sum = 0.0, cos_sum = 0.0, dt_sum = 0.0, yaw_weight = 0.0;
   const std::int64_t t0 = obs.front().t_mono_ns;
   const std::int64_t r0 = obs.front().t_real_ns;
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const double wi = w[i] / wsum;
     p += wi * obs[i].p_world;
-    sin_sum += wi * std::sin(obs[i].yaw);
-    cos_sum += wi * std::cos(obs[i].yaw);
+    if (obs[i].has_yaw) {
+      sin_sum += wi * std::sin(obs[i].yaw);
+      cos_sum += wi * std::cos(obs[i].yaw);
+      yaw_weight += wi;
+    }
     dt_sum += wi * static_cast<double>(obs[i].t_mono_ns - t0);
-    if (obs[i].camera_index >= 0 && obs[i].camera_index < 32) f.camera_mask |= 1u << obs[i].camera_index;
+    f.sources |= source_bit(obs[i].source);
+    if (obs[i].source == ObservationSource::kCamera && obs[i].camera_index >= 0 && obs[i].camera_index < 32)
+      f.camera_mask |= 1u << obs[i].camera_index;
     f.quality += obs[i].area_px;
   }
   if (!method.weight) {  // median
@@ -80,7 +85,8 @@ FusedMarker fuse_marker(std::span<const WorldObservation> obs, const FusionMetho
     p = {median_of(xs), median_of(ys), median_of(zs)};
   }
   f.p_world = p;
-  f.yaw = std::atan2(sin_sum, cos_sum);
+  f.has_yaw = yaw_weight > 0.0;
+  f.yaw = f.has_yaw ? std::atan2(sin_sum, cos_sum) : 0.0;
   const auto dt = static_cast<std::int64_t>(std::llround(dt_sum));
   f.t_mono_ns = t0 + dt;
   f.t_real_ns = r0 + dt;

@@ -4,22 +4,21 @@
 
 namespace ips {
 
-void MarkerTracker::start(Track& t, const FusedMarker& m) const {
+void MarkerTracker::start(Track& t, const FusedMarker& m, const Eigen::Vector3d& variance) const {
   t.t_ns = m.t_mono_ns;
   for (int k = 0; k < 3; ++k) {
     t.axis[k].x = {m.p_world[k], 0.0};
     t.axis[k].P =
-        Eigen::Vector2d(options_.measurement_noise, options_.initial_velocity_std * options_.initial_velocity_std)
-            .asDiagonal();
+        Eigen::Vector2d(variance[k], options_.initial_velocity_std * options_.initial_velocity_std).asDiagonal();
   }
 }
 
-void MarkerTracker::update(FusedMarker& m) {
+void MarkerTracker::update(FusedMarker& m, const Eigen::Vector3d& variance) {
   auto [it, fresh] = tracks_.try_emplace(m.id);
   Track& t = it->second;
   const double dt = 1e-9 * static_cast<double>(m.t_mono_ns - t.t_ns);
   if (fresh || dt > options_.reset_after_s) {
-    start(t, m);
+    start(t, m, variance);
   } else {
     // An out-of-order measurement (dt < 0) is applied at the track's time (no prediction).
     const double h = dt > 0.0 ? dt : 0.0;
@@ -33,7 +32,7 @@ void MarkerTracker::update(FusedMarker& m) {
       a.x = F * a.x;
       a.P = F * a.P * F.transpose() + Q;
       // Measurement of the position only: H = [1 0].
-      const double s = a.P(0, 0) + options_.measurement_noise;
+      const double s = a.P(0, 0) + variance[k];
       const Eigen::Vector2d K = a.P.col(0) / s;
       const double innovation = m.p_world[k] - a.x[0];
       a.x += K * innovation;

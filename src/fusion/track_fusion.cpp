@@ -1,6 +1,7 @@
 #include "ips/fusion/track_fusion.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <set>
 
@@ -61,9 +62,45 @@ double ray_distance(const WorldObservation& o, const Eigen::Vector3d& p) {
   return (r - r.dot(o.ray_direction) * o.ray_direction).norm();
 }
 
+// A stream is one camera, or one stream of another source (a ranging tag): its estimates are
+// fitted for velocity together. Other sources' streams are kept apart from camera indices.
+int stream_key(const WorldObservation& o) {
+  if (o.source == ObservationSource::kCamera) return o.camera_index;
+  return (static_cast<int>(o.source) << 24) | (o.camera_index & 0xFFFFFF);
+}
+
+struct Gaussian {
+  Eigen::Vector3d mean;
+  Eigen::Matrix3d covariance;
+};
+
+// Inverse-covariance weighted mean. A zero variance (a fix at a known height) is floored at
+// (0.1 mm)^2 rather than made infinitely certain.
+Gaussian information_mean(const std::vector<Gaussian>& parts) {
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& g : parts) {
+    const Eigen::Matrix3d w = (g.covariance + 1e-8 * Eigen::Matrix3d::Identity()).inverse();
+    information += w;
+    sum += w * g.mean;
+  }
+  const Eigen::Matrix3d covariance = information.inverse();
+  return {covariance * sum, covariance};
+}
+
 }  // namespace
 
-TrackFusion::TrackFusion(const TrackFusionOptions& options) : options_(options) {
+namespace {
+KalmanOptions between_cameras_options(const TrackFusionOptions& o) {
+  KalmanOptions k = o.kalman_options;
+  k.process_noise = o.between_cameras_process_noise;
+  k.reset_after_s = std::max(1.0, k.reset_after_s);  // a fix every 150 ms at the least
+  return k;
+}
+}  // namespace
+
+TrackFusion::TrackFusion(const TrackFusionOptions& options)
+    : options_(options), between_cameras_(between_cameras_options(options)) {
   if (options_.kalman) kalman_.emplace(options_.kalman_options);
 }
 
@@ -76,14 +113,14 @@ void TrackFusion::prune(Track& track) const {
   }
 }
 
-std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std::int64_t t, std::int64_t t_real,
-                                                 std::int64_t window, const FusionMethod& method) const {
+std::vector<WorldObservation> TrackFusion::estimates_at(const Track& track, std::int64_t t, std::int64_t t_real,
+                                                        std::int64_t window, Eigen::Vector3d& camera_v,
+                                                        int& camera_v_count, Eigen::Vector3d& other_v,
+                                                        int& other_v_count) const {
   const std::int64_t span = to_ns(options_.velocity_span_s);
   std::vector<WorldObservation> estimates;
-  Eigen::Vector3d v_sum = Eigen::Vector3d::Zero();
-  int v_count = 0;
-  for (const auto& [camera, q] : track.by_camera) {
-    // This camera's newest capture time at or before t (several sightings may share it).
+  for (const auto& [stream, q] : track.by_camera) {
+    // This stream's newest capture time at or before t (several sightings may share it).
     auto last = std::upper_bound(q.begin(), q.end(), t,
                                  [](std::int64_t x, const WorldObservation& o) { return x < o.t_mono_ns; });
     if (last == q.begin()) continue;
@@ -121,8 +158,9 @@ std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std
       } else {
         v = fitted_velocity(fit);
       }
-      v_sum += v;
-      ++v_count;
+      const bool from_camera = fit.front()->source == ObservationSource::kCamera;
+      (from_camera ? camera_v : other_v) += v;
+      ++(from_camera ? camera_v_count : other_v_count);
     }
     const double dt = 1e-9 * static_cast<double>(t - t_cam);
     // An estimate that cannot be motion-compensated (one frame of this camera) is used only
@@ -139,6 +177,13 @@ std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std
       estimates.push_back(e);
     }
   }
+  return estimates;
+}
+
+std::optional<FusedMarker> TrackFusion::camera_state(int id, const Track& track,
+                                                     std::vector<WorldObservation> estimates, std::int64_t t,
+                                                     std::int64_t t_real, const FusionMethod& method,
+                                                     const std::optional<Eigen::Vector3d>& velocity) const {
   // Known heights win; without, rays of >= 2 cameras are triangulated, one camera's
   // depth-formula estimate is used only if allowed.
   if (std::any_of(estimates.begin(), estimates.end(), [](const WorldObservation& e) { return e.height_known; }))
@@ -176,8 +221,8 @@ std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std
   f.id = id;
   f.t_mono_ns = t;
   f.t_real_ns = t_real;
-  if (v_count > 0) {
-    f.velocity = v_sum / v_count;
+  if (velocity) {
+    f.velocity = *velocity;
     f.has_velocity = true;
   }
   // Covariance without a filter: scatter of the estimates + one measurement variance, / n.
@@ -185,6 +230,53 @@ std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
   for (const auto& e : estimates) scatter += (e.p_world - f.p_world) * (e.p_world - f.p_world).transpose();
   f.covariance = (scatter / n + options_.kalman_options.measurement_noise * Eigen::Matrix3d::Identity()) / n;
+  return f;
+}
+
+std::optional<FusedMarker> TrackFusion::state_at(int id, const Track& track, std::int64_t t, std::int64_t t_real,
+                                                 std::int64_t window, const FusionMethod& method) const {
+  Eigen::Vector3d camera_v = Eigen::Vector3d::Zero(), other_v = Eigen::Vector3d::Zero();
+  int camera_v_count = 0, other_v_count = 0;
+  std::vector<WorldObservation> cameras =
+      estimates_at(track, t, t_real, window, camera_v, camera_v_count, other_v, other_v_count);
+  const auto first_other = std::stable_partition(
+      cameras.begin(), cameras.end(), [](const WorldObservation& e) { return e.source == ObservationSource::kCamera; });
+  const std::vector<WorldObservation> others(first_other, cameras.end());
+  cameras.erase(first_other, cameras.end());
+  std::optional<Eigen::Vector3d> camera_velocity;
+  if (camera_v_count > 0) camera_velocity = camera_v / camera_v_count;
+  std::optional<FusedMarker> seen =
+      cameras.empty() ? std::nullopt : camera_state(id, track, std::move(cameras), t, t_real, method, camera_velocity);
+  if (others.empty()) return seen;
+
+  // Other sources by their covariances; the cameras' estimate enters as one more, with
+  // camera_sigma_m per axis over the number of cameras.
+  std::vector<Gaussian> parts;
+  for (const auto& e : others) parts.push_back({e.p_world, e.covariance});
+  FusedMarker f;
+  if (seen) {
+    f = *seen;
+    const double n = std::max(1, std::popcount(f.camera_mask));
+    parts.push_back({f.p_world, options_.camera_sigma_m * options_.camera_sigma_m / n * Eigen::Matrix3d::Identity()});
+  } else {
+    f = fuse_marker(others, method);  // sources, heading (if any), time
+    f.id = id;
+    f.t_mono_ns = t;
+    f.t_real_ns = t_real;
+    if (other_v_count > 0) {
+      f.velocity = other_v / other_v_count;
+      f.has_velocity = true;
+    } else if (track.path.size() >= 2) {
+      f.velocity = path_velocity(track);
+      f.has_velocity = true;
+    }
+  }
+  for (const auto& e : others) f.sources |= source_bit(e.source);
+  const Gaussian g = information_mean(parts);
+  f.p_world = g.mean;
+  f.covariance = g.covariance;
+  f.spread = 0.0;
+  for (const auto& part : parts) f.spread = std::max(f.spread, (part.mean - g.mean).norm());
   return f;
 }
 
@@ -201,10 +293,25 @@ Eigen::Vector3d TrackFusion::path_velocity(const Track& track) const {
 }
 
 void TrackFusion::finish(FusedMarker& f, Track& track) {
+  FusedMarker filtered = f;
+  if (f.camera_mask) {
+    const double n = std::max(1, std::popcount(f.camera_mask));
+    between_cameras_.update(filtered, Eigen::Vector3d::Constant(options_.camera_sigma_m * options_.camera_sigma_m / n));
+  } else if (f.sources & ~source_bit(ObservationSource::kCamera)) {
+    between_cameras_.update(filtered, f.covariance.diagonal());
+    f.p_world = filtered.p_world;
+    f.covariance = filtered.covariance;
+    f.velocity = filtered.velocity;
+    f.has_velocity = true;
+  }
   // The path keeps the unfiltered states of the last velocity span (x2: several cameras' worth).
   track.path.emplace_back(f.t_mono_ns, f.p_world);
   while (track.path.size() > 2 && f.t_mono_ns - track.path.front().first > to_ns(2 * options_.velocity_span_s))
     track.path.pop_front();
+  if (f.has_yaw)
+    track.yaw = f.yaw;
+  else
+    f.yaw = track.yaw;  // held: ranges alone say nothing of the heading
   if (kalman_) kalman_->update(f);
   track.published_ns = f.t_mono_ns;
   track.published = true;
@@ -226,7 +333,7 @@ void TrackFusion::add(const FrameObservations& batch, const FusionMethod& method
       ++counters_.too_old;
       continue;
     }
-    auto& q = track.by_camera[o.camera_index];
+    auto& q = track.by_camera[stream_key(o)];
     auto pos = std::upper_bound(q.begin(), q.end(), o.t_mono_ns,
                                 [](std::int64_t x, const WorldObservation& w) { return x < w.t_mono_ns; });
     q.insert(pos, o);

@@ -36,10 +36,25 @@ struct CameraObservation {
   std::array<Point2, 4> corners_norm{};             ///< undistorted corners, normalised (u, v)
 };
 
-/// A marker in world coordinates as seen by one camera.
+/// Where a world observation came from. Fusion combines the cameras' estimates of one
+/// instant by the configured method, then what other sources say by their covariances.
+enum class ObservationSource : std::uint8_t {
+  kCamera = 0,  ///< a ceiling camera's marker detection
+  kRanges = 1,  ///< a fix solved from one firing's ranges (UWB / ultrasound)
+};
+
+/// Bit of a source in FusedMarker::sources.
+constexpr std::uint16_t source_bit(ObservationSource s) {
+  return static_cast<std::uint16_t>(1u << static_cast<unsigned>(s));
+}
+
+/// A marker in world coordinates as seen by one camera (or solved by another source).
 struct WorldObservation {
   int id = -1;
-  int camera_index = -1;                              ///< index of the camera in the daemon's configuration
+  /// Index of the camera in the daemon's configuration; for another source, the index of the
+  /// stream within it (a ranging tag's id): estimates of one stream are fitted for velocity together.
+  int camera_index = -1;
+  ObservationSource source = ObservationSource::kCamera;
   Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< metres
   double yaw = 0.0;                                   ///< heading in the world x-y plane, radians
   double area_px = 0.0;                               ///< pixel area, for fusion weights
@@ -48,6 +63,10 @@ struct WorldObservation {
   /// False when the marker's height is unknown: p_world is then the depth-formula point on the
   /// camera ray (cm-level in z), and the ray below lets fusion triangulate with other cameras.
   bool height_known = true;
+  bool has_yaw = true;  ///< false: a source that gives no heading (ranges); `yaw` is then ignored
+  /// A source other than a camera states its uncertainty (m^2); camera estimates are weighed
+  /// by the fusion method and TrackFusionOptions::camera_sigma_m instead.
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   bool has_ray = false;
   Eigen::Vector3d ray_origin = Eigen::Vector3d::Zero();     ///< camera centre, world, metres
   Eigen::Vector3d ray_direction = Eigen::Vector3d::Zero();  ///< unit vector towards the marker

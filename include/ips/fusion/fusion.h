@@ -37,9 +37,13 @@ struct FusedMarker {
   Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< metres
   double yaw = 0.0;                                   ///< world heading, radians in (-pi, pi]
   std::uint32_t camera_mask = 0;                      ///< bit i = camera index i contributed
-  double quality = 0.0;                               ///< sum of contributing pixel areas, px^2
-  double spread = 0.0;                                ///< max distance of a contributing estimate from p_world, m
-  std::int64_t t_mono_ns = 0;                         ///< weighted mean capture time of the contributions
+  std::uint16_t sources = 0;                          ///< source_bit() of every source that contributed
+  /// False when no contribution had a heading (ranges alone): `yaw` is then the last published
+  /// heading held, or 0.
+  bool has_yaw = true;
+  double quality = 0.0;        ///< sum of contributing pixel areas, px^2
+  double spread = 0.0;         ///< max distance of a contributing estimate from p_world, m
+  std::int64_t t_mono_ns = 0;  ///< weighted mean capture time of the contributions
   std::int64_t t_real_ns = 0;
   bool has_velocity = false;                           ///< velocity is an estimate (Kalman, or the cameras' own motion)
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s
@@ -63,7 +67,8 @@ const std::vector<FusionMethod>& fusion_methods();
 const FusionMethod& find_fusion_method(const std::string& name, const std::string& where);
 
 /// Fuses observations of ONE marker id (non-empty). Position: weighted mean (per-axis median
-/// for `median`); yaw: weighted circular mean (unweighted for `median`); time: weighted mean.
+/// for `median`); yaw: weighted circular mean (unweighted for `median`) of those that have one;
+/// time: weighted mean. Only camera observations set bits of camera_mask.
 FusedMarker fuse_marker(std::span<const WorldObservation> observations, const FusionMethod& method);
 
 /// Groups `observations` by marker id and fuses each group; result sorted by id.

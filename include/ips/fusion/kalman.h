@@ -32,7 +32,9 @@ class MarkerTracker {
 
   /// Filters `m` in place at its capture time m.t_mono_ns: replaces p_world by the filtered
   /// position and sets velocity / has_velocity.
-  void update(FusedMarker& m);
+  void update(FusedMarker& m) { update(m, Eigen::Vector3d::Constant(options_.measurement_noise)); }
+  /// The same with this measurement's variance per axis, m^2 (a source that states its own).
+  void update(FusedMarker& m, const Eigen::Vector3d& measurement_variance);
 
   std::size_t tracks() const { return tracks_.size(); }
 
@@ -45,7 +47,7 @@ class MarkerTracker {
     std::int64_t t_ns = 0;
     Axis axis[3];
   };
-  void start(Track& t, const FusedMarker& m) const;
+  void start(Track& t, const FusedMarker& m, const Eigen::Vector3d& variance) const;
 
   KalmanOptions options_;
   std::map<int, Track> tracks_;

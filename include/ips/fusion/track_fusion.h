@@ -38,6 +38,16 @@ struct TrackFusionOptions : FusionTimeWindows {
   /// An object without a known height seen by one camera: publish the depth-formula position
   /// (true) or nothing (false). With >= 2 cameras' rays it is triangulated either way.
   bool single_camera_depth = false;
+  /// A camera estimate's standard deviation (m) when it is weighed against a source that states
+  /// its own covariance (ranges): the daemon's measured accuracy is mm-level, so a 5 cm range
+  /// fix moves a camera-seen position by ~0.1 mm and fills in where no camera sees it. Where
+  /// no camera sees an object, a constant-velocity filter smooths the other sources'
+  /// estimates, started from the cameras' last state.
+  double camera_sigma_m = 0.002;
+  /// That filter's white-noise acceleration, m^2/s^3. 0.1 halves a 5 cm range fix's p95 for
+  /// a robot at 0.2 m/s (tests/fusion/track_fusion_sources_test.cpp: 125 -> 75 mm); lower
+  /// smooths more but claims more certainty than a turning robot allows at the hand-back.
+  double between_cameras_process_noise = 0.1;
   bool kalman = false;  ///< constant-velocity Kalman filter per object on the output
   KalmanOptions kalman_options;
 
@@ -78,14 +88,25 @@ class TrackFusion {
 
  private:
   struct Track {
-    std::map<int, std::deque<WorldObservation>> by_camera;  // time-ordered per camera
+    /// Time-ordered per stream: a camera, or one stream of another source (stream_key()).
+    std::map<int, std::deque<WorldObservation>> by_camera;
     std::int64_t newest_ns = 0;
     std::int64_t published_ns = 0;
     bool published = false;
     /// Recent published (time, position): the object's velocity for moving rays, which carry
     /// no position of their own to fit.
     std::deque<std::pair<std::int64_t, Eigen::Vector3d>> path;
+    double yaw = 0.0;  ///< last published heading, held while only headingless sources see the object
   };
+  /// The estimates of every stream at time t, each moved to t by its own velocity; the
+  /// streams' velocities are summed and counted, the cameras' apart from the other sources'.
+  std::vector<WorldObservation> estimates_at(const Track& track, std::int64_t t, std::int64_t t_real,
+                                             std::int64_t window_ns, Eigen::Vector3d& camera_v, int& camera_v_count,
+                                             Eigen::Vector3d& other_v, int& other_v_count) const;
+  /// The cameras' estimates fused as before sources were added (method, rays, depth formula).
+  std::optional<FusedMarker> camera_state(int id, const Track& track, std::vector<WorldObservation> estimates,
+                                          std::int64_t t, std::int64_t t_real, const FusionMethod& method,
+                                          const std::optional<Eigen::Vector3d>& velocity) const;
   Eigen::Vector3d path_velocity(const Track& track) const;
   /// Combines the cameras' estimates of `track` at time t (nullopt if none is recent enough).
   std::optional<FusedMarker> state_at(int id, const Track& track, std::int64_t t_mono_ns, std::int64_t t_real_ns,
@@ -97,6 +118,10 @@ class TrackFusion {
   std::map<int, Track> tracks_;
   std::int64_t latest_ns_ = 0;  ///< newest capture time fed
   std::optional<MarkerTracker> kalman_;
+  /// Follows every object on every record (cameras at camera_sigma_m, other sources at their
+  /// covariance); where no camera sees it, what is published is this filter's state: noisy
+  /// range fixes are smoothed, and the hand-over starts from the cameras' position and velocity.
+  MarkerTracker between_cameras_;
   TrackFusionCounters counters_;
 };
 
