@@ -104,6 +104,25 @@ int run_status(const StatusOptions& o) {
         std::printf(", %s %llu", name.c_str(), static_cast<unsigned long long>(value.get<std::uint64_t>()));
     std::printf("\n");
   }
+  // The range input (ranging:): what arrived, what was refused and why, what was solved.
+  if (const auto r = j.value("ranging", nlohmann::json::object()); !r.empty()) {
+    const auto count = [](const nlohmann::json& doc, const char* k) {
+      return static_cast<unsigned long long>(doc.value(k, 0ULL));
+    };
+    std::printf("  ranging port %d: %llu datagrams, %llu taken, %llu fixes", r.value("port", 0), count(r, "datagrams"),
+                count(r, "accepted"), count(r, "fixes"));
+    // Named, not temporaries: items() refers to its object, which must outlive the loop.
+    const auto refused = r.value("refused", nlohmann::json::object());
+    const auto failed = r.value("fixes_failed", nlohmann::json::object());
+    for (const auto& [why, n] : refused.items())
+      if (n.is_number_unsigned() && n.get<std::uint64_t>() > 0)
+        std::printf(", refused %s %llu", why.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
+    for (const auto& [why, n] : failed.items())
+      if (n.is_number_unsigned())
+        std::printf(", unsolved %s %llu", why.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
+    if (count(r, "unknown_references")) std::printf(", unknown references %llu", count(r, "unknown_references"));
+    std::printf("\n");
+  }
   return 0;
 }
 

@@ -25,11 +25,7 @@ ips::RangeFix solve(const Options& o, const ips::RangeFixInput& fix) {
   ips::RangeSolveOptions options;
   options.known_height = o.height;
   if (o.z_range.size() == 2) options.z_range = std::make_pair(o.z_range[0], o.z_range[1]);
-  if (o.method == "median4") return ips::fix_from_subsets(fix.ranges, ips::SubsetVote::kMedian, options);
-  if (o.method == "mean4") return ips::fix_from_subsets(fix.ranges, ips::SubsetVote::kMean, options);
-  if (o.method == "nelder-mead") return ips::fix_nelder_mead(fix.ranges, options);
-  if (o.method == "lsq") options.robust_sigmas = 0;  // plain weighted least squares
-  return ips::fix_least_squares(fix.ranges, options);
+  return ips::fix_by_method(o.method, fix.ranges, options, "--method");
 }
 
 int run(const Options& o) {
@@ -82,7 +78,7 @@ IPS_REGISTER_COMMAND(
              "--method", o->method,
              "robust (Cauchy least squares, contradicted ranges left out) | lsq | median4 | mean4 (Albayati & Kurt) | "
              "nelder-mead (Petkovic et al.)")
-          ->check(CLI::IsMember({"robust", "lsq", "median4", "mean4", "nelder-mead"}))
+          ->check(CLI::IsMember(ips::range_method_names()))
           ->capture_default_str();
       auto* height = sub.add_option("--height", o->height, "the tags' known height (m): 2-D fixes");
       sub.add_option("--z-range", o->z_range, "ZMIN ZMAX: the heights a tag can be at (m)")

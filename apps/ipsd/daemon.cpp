@@ -59,6 +59,8 @@ Daemon::Daemon(std::filesystem::path config_path, Mode mode) : config_path_(std:
   spdlog::set_level(spdlog::level::from_str(config.log_level));
   runtime_.set(build_runtime(config, nullptr, mode == Mode::kCheck));
   if (mode == Mode::kRun && !config.status.socket.empty()) status_socket_.emplace(config.status.socket);
+  // The range input binds at start, so a taken port stops ipsd (exit 2) naming ranging.port.
+  if (mode == Mode::kRun && config.ranging.enabled()) ranges_ = std::make_unique<RangeLink>(config.ranging);
 }
 
 Daemon::~Daemon() { stop_pipeline(); }
@@ -116,6 +118,7 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
     web_->set_layout(web_layout(*runtime_.get()));
   }
   p->fusion->start();
+  if (ranges_) ranges_->attach(&p->queue);
   p->workers->start();
   for (auto& c : p->cameras) c->start();
   pipeline_ = std::move(p);
@@ -124,6 +127,7 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
 
 void Daemon::stop_pipeline() {
   if (!pipeline_) return;
+  if (ranges_) ranges_->attach(nullptr);
   for (auto& c : pipeline_->cameras) c->request_stop();
   pipeline_->workers->request_stop();
   pipeline_->scheduler->close();
@@ -144,11 +148,21 @@ void Daemon::reload() {
     std::optional<StatusSocket> socket;
     if (config.status.socket != old->config.status.socket && !config.status.socket.empty())
       socket.emplace(config.status.socket);
+    // A changed ranging: section gets a new input, bound before the old one closes (the port
+    // is shared for that moment); its firing gate and counters start afresh.
+    std::unique_ptr<RangeLink> ranges;
+    const bool ranging_changed = config.ranging != old->config.ranging;
+    if (ranging_changed && config.ranging.enabled()) ranges = std::make_unique<RangeLink>(config.ranging);
     // Everything loaded: apply.
     spdlog::set_level(spdlog::level::from_str(config.log_level));
     if (config.status.socket != old->config.status.socket) {
       status_socket_.reset();
       if (socket) status_socket_ = std::move(socket);
+    }
+    if (ranging_changed) {
+      if (ranges && pipeline_) ranges->attach(&pipeline_->queue);
+      ranges_ = std::move(ranges);
+      spdlog::info("reload: ranging {}", ranges_ ? "input reopened on port " + std::to_string(ranges_->port()) : "off");
     }
     if (config.web != old->config.web) spdlog::warn("reload: web.* changes take effect when ipsd restarts");
     if (config.outputs != old->config.outputs)
@@ -225,6 +239,7 @@ nlohmann::json Daemon::status_document() {
   auto j = status_json(pipeline_->rates, pipeline_->fusion_stats, pipeline_->queue.dropped(), *runtime_.get(),
                        started_ns_, synthetic_epoch_ns_);
   if (web_) j["web"] = web_counters_json(web_->counters());
+  if (ranges_) j["ranging"] = ranges_->status();
   // Per camera: its own view of each fixed marker (docs/survey.md, bumped camera).
   for (auto& c : j["cameras"]) c["fixed_markers"] = nlohmann::json::array();
   for (const auto& r : pipeline_->fixed.readings(ips::monotonic_ns()))

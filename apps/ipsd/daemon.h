@@ -14,6 +14,7 @@
 #include "fusion_worker.h"
 #include "ips/web/web.h"
 #include "pipeline.h"
+#include "range_link.h"
 #include "status.h"
 
 namespace ipsd {
@@ -53,6 +54,7 @@ class Daemon {
   std::unique_ptr<Pipeline> pipeline_;
   std::optional<StatusSocket> status_socket_;
   std::unique_ptr<ips::WebServer> web_;  // web view (web.listen), started by run()
+  std::unique_ptr<RangeLink> ranges_;    // ranging: (absent = nullptr); outlives camera restarts
   std::int64_t started_ns_ = 0;
   std::int64_t synthetic_epoch_ns_ = 0;
   std::int64_t next_sample_ns_ = 0;

@@ -142,11 +142,11 @@ void FusionWorker::run() {
     CameraBatch batch;
     if (queue_.pop(batch, wait)) {
       // Each camera's own view of the fixed markers, before fusion mixes the cameras.
-      if (fixed_ && !fixed_->empty()) log_events(fixed_->add(batch), rt->config);
+      if (fixed_ && !fixed_->empty() && batch.camera_index >= 0) log_events(fixed_->add(batch), rt->config);
       states.clear();
       fusion.add(batch, *rt->fusion, period > 0 ? nullptr : &states);
       body_states.clear();
-      if (bodies && !batch.bodies.empty())
+      if (bodies && !batch.bodies.empty() && batch.camera_index >= 0)
         bodies->add(batch.camera_index, batch.t_mono_ns, batch.t_real_ns, batch.bodies, *rt->fusion, body_states);
       if (period == 0) publish(states, body_states, batch.t_mono_ns, batch.t_real_ns, batch.t_delivered_ns, *rt);
     }

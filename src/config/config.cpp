@@ -17,6 +17,7 @@
 #include "detect/parse_detection.h"
 #include "fusion/parse_fusion.h"
 #include "geometry/parse_markers.h"
+#include "input/parse_ranging.h"
 #include "ips/core/error.h"
 #include "output/parse_output.h"
 #include "web/parse_web.h"
@@ -94,6 +95,13 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   }
 
   if (r.has("web")) parse_web(r.node("web"), file, c.web);
+  if (r.has("ranging")) {
+    c.ranging = parse_ranging(r.node("ranging"), file);
+    for (const auto& [tag, marker] : c.ranging.tag_markers)
+      if (c.markers.ids.count(marker) && c.markers.ids.at(marker).fixed)
+        r.fail(root["ranging"]["tags"], "ranging.tags",
+               "tag " + std::to_string(tag) + "'s marker " + std::to_string(marker) + " is a fixed marker");
+  }
 
   if (r.has("processing")) {
     MapReader w(r.node("processing"), "processing", file);

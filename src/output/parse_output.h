@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
@@ -16,6 +17,8 @@ OutputConfig parse_output(const YAML::Node& n, int index, const std::string& fil
 void parse_mavlink_output(MapReader& r, const YAML::Node& n, OutputConfig& o, const std::string& file);
 /// The type-specific keys of a subscriptions output (parse_output_subscriptions.cpp).
 void parse_subscriptions_output(MapReader& r, const YAML::Node& n, OutputConfig& o);
+/// `allow`: a non-empty list of IPv4 subnets (the subscriptions output, the range input).
+void read_allow_list(MapReader& r, std::vector<std::string>& allow);
 /// outputs[i] of type ros2 (parse_output_ros2.cpp).
 void parse_ros2_output(MapReader& r, const YAML::Node& n, Ros2OutputSettings& o);
 

@@ -1,5 +1,7 @@
 #include "ips/ranging/multilateration.h"
 
+#include "ips/core/error.h"
+
 #include "ranging/solver_common.h"
 
 #include <algorithm>
@@ -252,6 +254,26 @@ Eigen::Vector3d starting_point(std::span<const RangeToAnchor> ranges, const Rang
 }
 
 }  // namespace ranging_detail
+
+const std::vector<std::string>& range_method_names() {
+  static const std::vector<std::string> names = {"robust", "lsq", "median4", "mean4", "nelder-mead"};
+  return names;
+}
+
+RangeFix fix_by_method(const std::string& method, std::span<const RangeToAnchor> ranges, RangeSolveOptions options,
+                       const std::string& where) {
+  if (method == "robust") return fix_least_squares(ranges, options);
+  if (method == "lsq") {
+    options.robust_sigmas = 0;
+    return fix_least_squares(ranges, options);
+  }
+  if (method == "median4") return fix_from_subsets(ranges, SubsetVote::kMedian, options);
+  if (method == "mean4") return fix_from_subsets(ranges, SubsetVote::kMean, options);
+  if (method == "nelder-mead") return fix_nelder_mead(ranges, options);
+  std::string known;
+  for (const auto& n : range_method_names()) known += (known.empty() ? "" : ", ") + n;
+  throw InputError(where + ": unknown method '" + method + "' (known: " + known + ")");
+}
 
 const char* range_fix_status_word(RangeFixStatus status) {
   switch (status) {

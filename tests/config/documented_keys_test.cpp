@@ -114,6 +114,23 @@ status: {interval: 10, socket: ""}
 processing: {workers: 2, budget: 0.033}
 watchdog: {stall_timeout: 2}
 web: {listen: "127.0.0.1:8080", floor: [0, 0, 4, 4]}
+ranging:
+  address: 0.0.0.0
+  port: 5800
+  allow: [10.0.0.0/8]
+  psk: secret
+  rate_per_source: 100
+  reorder_window: 0.3
+  max_clock_ahead: 1
+  method: robust
+  height: 0.1
+  sigma: 0.05
+  anchors:
+    - {id: 1, x: 0, y: 0, z: 2.5, bias: 0.02, scale: 1.0, sigma: 0.04}
+    - {id: 2, x: 4, y: 0, z: 2.5}
+    - {id: 3, x: 4, y: 3, z: 2.5}
+  tags:
+    - {id: 7, marker: 3}
 )";
   std::set<std::string> recorded;
   {
@@ -121,13 +138,19 @@ web: {listen: "127.0.0.1:8080", floor: [0, 0, 4, 4]}
     (void)parse_text(text);
     // The older form of min_marker_px, which may not stand beside it.
     (void)parse_text(test::kSyntheticRedConfig + "detection: {min_perimeter_px: 80}\n");
+    // z_range, which may not stand beside height.
+    (void)parse_text(
+        test::kSyntheticRedConfig +
+        "ranging: {port: 5801, z_range: [0, 2], anchors: [{id: 1, x: 0, y: 0, z: 2}, {id: 2, x: 4, "
+        "y: 0, z: 1}, {id: 3, x: 4, y: 3, z: 2}, {id: 4, x: 0, y: 3, z: 1}], tags: [{id: 7, marker: 5}]}\n");
   }
   std::set<std::string> accepted;
   for (const auto& k : recorded) accepted.insert(documented_form(k));
   // Sanity: the recording saw every section (a parser that stopped noting keys fails here, not
   // as a hundred "undocumented" lines).
   for (const char* k : {"cameras[].controls.gain", "markers.ids.<id>.fixed", "bodies[].flat[].yaw_deg",
-                        "outputs[].vehicles[].system_id", "fusion.kalman.reset_after", "web.floor"})
+                        "outputs[].vehicles[].system_id", "fusion.kalman.reset_after", "web.floor",
+                        "ranging.anchors[].bias", "ranging.z_range"})
     EXPECT_TRUE(accepted.count(k)) << k << " was not recorded";
 
   const auto page = std::filesystem::path(IPS_SOURCE_DIR) / "docs" / "configuration.md";

@@ -17,6 +17,7 @@
 #include "ips/detect/tracker.h"
 #include "ips/fusion/fusion_settings.h"
 #include "ips/geometry/marker_settings.h"
+#include "ips/input/ranging_settings.h"
 #include "ips/output/output_settings.h"
 #include "ips/web/web_settings.h"
 
@@ -57,6 +58,7 @@ struct DaemonConfig {
   ProcessingConfig processing;
   StatusConfig status;
   WebConfig web;
+  RangingConfig ranging;         ///< ranging: the range input (ips/input/ranging_settings.h); absent = off
   double stall_timeout_s = 2.0;  ///< watchdog: a thread without progress this long withholds WATCHDOG=1
 };
 

@@ -91,4 +91,12 @@ RangeFix fix_least_squares(std::span<const RangeToAnchor> ranges, const RangeSol
 RangeFix fix_nelder_mead(std::span<const RangeToAnchor> ranges, const RangeSolveOptions& options = {},
                          const std::optional<Eigen::Vector3d>& initial = std::nullopt);
 
+/// The solvers by the names `ips trilaterate --method` and `ranging.method` use: robust (the
+/// default: fix_least_squares as configured), lsq (plain weighted least squares), median4 and
+/// mean4 (fix_from_subsets), nelder-mead (fix_nelder_mead).
+const std::vector<std::string>& range_method_names();
+/// Solves by name; throws ips::InputError naming `where` for an unknown one.
+RangeFix fix_by_method(const std::string& method, std::span<const RangeToAnchor> ranges, RangeSolveOptions options,
+                       const std::string& where = "method");
+
 }  // namespace ips

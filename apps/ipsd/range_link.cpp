@@ -1,0 +1,57 @@
+#include "range_link.h"
+
+#include "ips/core/clock.h"
+
+namespace ipsd {
+
+RangeLink::RangeLink(const ips::RangingConfig& config) : config_(config), fixer_(config) {
+  input_ = std::make_unique<ips::RangeInput>(config.input, "ranging",
+                                             [this](ips::AdmittedFiring&& f) { on_firing(std::move(f)); });
+}
+
+RangeLink::~RangeLink() { input_.reset(); }  // joins the receive thread before the rest goes
+
+void RangeLink::attach(ObservationQueue* queue) {
+  std::lock_guard lock(mutex_);
+  queue_ = queue;
+}
+
+void RangeLink::on_firing(ips::AdmittedFiring&& firing) {
+  // The firing's time on this host's realtime clock, from its monotonic placement.
+  const std::int64_t t_real = firing.t_mono_ns + ips::realtime_minus_monotonic_ns();
+  std::lock_guard lock(mutex_);
+  auto observation = fixer_.fix(firing, t_real);
+  if (!observation) return;
+  if (!queue_) {
+    ++detached_;
+    return;
+  }
+  CameraBatch batch;
+  batch.camera_index = -1;  // not a camera: fusion keys the fix by its source and tag
+  batch.t_mono_ns = firing.t_mono_ns;
+  batch.t_real_ns = t_real;
+  batch.observations.push_back(std::move(*observation));
+  queue_->push(std::move(batch));
+}
+
+nlohmann::json RangeLink::status() const {
+  const ips::RangeInputCounters in = input_->counters();
+  std::lock_guard lock(mutex_);
+  nlohmann::json refused = nlohmann::json::object();
+  for (std::size_t i = 0; i < in.refused.size(); ++i)
+    refused[ips::range_refusal_name(static_cast<ips::RangeRefusal>(i))] = in.refused[i];
+  const ips::RangeFixCounters& fixes = fixer_.counters();
+  nlohmann::json failed = nlohmann::json::object();
+  for (const auto& [why, n] : fixes.failed) failed[why] = n;
+  return {{"port", input_->port()},
+          {"datagrams", in.datagrams},
+          {"accepted", in.accepted},
+          {"refused", refused},
+          {"unknown_references", in.unknown_references},
+          {"fixes", fixes.fixes},
+          {"fixes_failed", failed},
+          {"tag_references_skipped", fixes.tag_references_skipped},
+          {"fixes_dropped_while_restarting", detached_}};
+}
+
+}  // namespace ipsd

@@ -1,0 +1,44 @@
+// The `ranging:` section of ipsd's configuration (docs/ranging.md): where the range input
+// listens, who may send, the anchors the tags range to, which marker each tag belongs to, and
+// how a firing's ranges are solved. Absent = no range input.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include <Eigen/Core>
+
+#include "ips/input/range_admission.h"
+
+namespace ips {
+
+/// A fixed anchor. A measured range is corrected as (range - bias) / scale before solving: a
+/// module that reads 3 cm long has bias 0.03; one whose clock runs 0.1 % fast, scale 1.001.
+struct RangingAnchor {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< world frame, m
+  double bias_m = 0.0;
+  double scale = 1.0;
+  double sigma_m = 0.0;  ///< this anchor's range 1-sigma when the firing says 0; 0 = ranging.sigma
+
+  bool operator==(const RangingAnchor&) const = default;
+};
+
+struct RangingConfig {
+  /// address, port (0 = the section is absent: no range input), allow, psk, limits; its
+  /// tags and anchors are filled from the ones below.
+  RangeInputSettings input;
+  std::map<std::uint32_t, RangingAnchor> anchors;
+  std::map<std::uint32_t, int> tag_markers;          ///< tag id -> the marker id its fixes are published as
+  std::string method = "robust";                     ///< ips::range_method_names()
+  std::optional<double> height;                      ///< the tags' known height (robots on a floor), m
+  std::optional<std::pair<double, double>> z_range;  ///< otherwise, the heights they can be at
+  double sigma_m = 0.05;                             ///< a range's 1-sigma when neither firing nor anchor says
+
+  bool enabled() const { return input.port != 0; }
+  bool operator==(const RangingConfig&) const = default;
+};
+
+}  // namespace ips

@@ -1,0 +1,111 @@
+#include "input/parse_ranging.h"
+
+#include <algorithm>
+
+#include "core/map_reader.h"
+#include "ips/ranging/multilateration.h"
+#include "output/parse_output.h"
+
+namespace ips::config_detail {
+namespace {
+
+std::uint32_t read_id(MapReader& r, const YAML::Node& n, const char* what) {
+  long long id = -1;
+  r.get("id", id, true);
+  // Bit 31 of a datagram's reference marks a tag: ids are 0 .. 2^31 - 1.
+  if (id < 0 || id > 0x7fffffff) r.fail(n["id"], r.key("id"), std::string(what) + " ids are 0..2147483647");
+  return static_cast<std::uint32_t>(id);
+}
+
+template <typename Item>
+void read_list(MapReader& r, const char* key, const std::string& what, Item&& item) {
+  const YAML::Node list = r.node(key);
+  if (!list.IsSequence() || list.size() == 0) r.fail(list, r.key(key), "expected a non-empty list of " + what);
+  for (std::size_t i = 0; i < list.size(); ++i) item(list[i], r.key(key) + "[" + std::to_string(i) + "]");
+}
+
+}  // namespace
+
+RangingConfig parse_ranging(const YAML::Node& node, const std::string& file) {
+  RangingConfig c;
+  MapReader r(node, "ranging", file);
+  RangeInputSettings& in = c.input;
+  r.get("address", in.address);
+  int port = 0;
+  r.get("port", port, true);
+  if (port < 1 || port > 65535) r.fail(node["port"], "ranging.port", "must be 1..65535");
+  in.port = static_cast<std::uint16_t>(port);
+  read_allow_list(r, in.allow);
+  r.get("psk", in.psk);
+  r.get_number("rate_per_source", in.rate_per_source_hz, 0.0, true);
+  r.get_number("reorder_window", in.reorder_window_s, 0.0, false);
+  if (in.reorder_window_s > 10) r.fail(node["reorder_window"], "ranging.reorder_window", "must be <= 10 s");
+  r.get_number("max_clock_ahead", in.max_clock_ahead_s, 0.0, false);
+
+  r.get("method", c.method);
+  const auto& names = range_method_names();
+  if (std::find(names.begin(), names.end(), c.method) == names.end()) {
+    std::string known;
+    for (const auto& n : names) known += (known.empty() ? "" : "|") + n;
+    r.fail(node["method"], "ranging.method", "unknown value '" + c.method + "' (" + known + ")");
+  }
+  if (r.has("height")) {
+    double h = 0;
+    r.get("height", h);
+    c.height = h;
+  }
+  if (r.has("z_range")) {
+    const YAML::Node z = r.node("z_range");
+    double lo = 0, hi = 0;
+    bool ok = z.IsSequence() && z.size() == 2;
+    try {
+      if (ok) {
+        lo = z[0].as<double>();
+        hi = z[1].as<double>();
+      }
+    } catch (const YAML::Exception&) {
+      ok = false;
+    }
+    if (!ok || !std::isfinite(lo) || !std::isfinite(hi) || !(lo <= hi))
+      r.fail(z, "ranging.z_range", "expected [zmin, zmax] in metres with zmin <= zmax");
+    if (c.height) r.fail(z, "ranging.z_range", "give either height (known) or z_range, not both");
+    c.z_range = std::make_pair(lo, hi);
+  }
+  r.get_number("sigma", c.sigma_m, 0.0, true);
+
+  read_list(r, "anchors", "anchors ({id, x, y, z})", [&](const YAML::Node& n, const std::string& where) {
+    MapReader a(n, where, file);
+    const std::uint32_t id = read_id(a, n, "anchor");
+    RangingAnchor anchor;
+    double x = 0, y = 0, z = 0;
+    a.get("x", x, true);
+    a.get("y", y, true);
+    a.get("z", z, true);
+    anchor.position = {x, y, z};
+    a.get("bias", anchor.bias_m);
+    a.get_number("scale", anchor.scale, 0.5, true);
+    if (anchor.scale > 2) a.fail(n["scale"], a.key("scale"), "must be in (0.5, 2]");
+    a.get_number("sigma", anchor.sigma_m, 0.0, false);
+    a.finish();
+    if (!c.anchors.emplace(id, anchor).second)
+      a.fail(n["id"], a.key("id"), "anchor " + std::to_string(id) + " is listed twice");
+  });
+  if (c.anchors.size() < 3)
+    r.fail(node["anchors"], "ranging.anchors", "at least 3 anchors (4 without a known height) are needed for a fix");
+  read_list(r, "tags", "tags ({id, marker})", [&](const YAML::Node& n, const std::string& where) {
+    MapReader t(n, where, file);
+    const std::uint32_t id = read_id(t, n, "tag");
+    int marker = -1;
+    t.get("marker", marker, true);
+    if (marker < 0) t.fail(n["marker"], t.key("marker"), "a marker id (>= 0) the tag's fixes are published as");
+    t.finish();
+    if (!c.tag_markers.emplace(id, marker).second)
+      t.fail(n["id"], t.key("id"), "tag " + std::to_string(id) + " is listed twice");
+  });
+  r.finish();
+  for (const auto& [id, a] : c.anchors) in.anchors.insert(id);
+  for (const auto& [id, m] : c.tag_markers) in.tags.insert(id);
+  return c;
+}
+
+}  // namespace ips::config_detail

@@ -1,0 +1,49 @@
+#include "ips/input/range_fixer.h"
+
+#include <exception>
+#include <vector>
+
+#include "ips/ranging/multilateration.h"
+#include "ips/ranging/range_observation.h"
+
+namespace ips {
+
+std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, std::int64_t t_real_ns) {
+  const RangeFiring& f = admitted.firing;
+  const auto tag = config_.tag_markers.find(f.tag);
+  if (tag == config_.tag_markers.end()) {  // admission takes configured tags only
+    ++counters_.failed["unknown_tag"];
+    return std::nullopt;
+  }
+  std::vector<RangeToAnchor> ranges;
+  ranges.reserve(f.entries.size());
+  for (const RangeEntry& e : f.entries) {
+    if (e.reference_is_tag) {
+      ++counters_.tag_references_skipped;
+      continue;
+    }
+    const auto a = config_.anchors.find(e.reference);
+    if (a == config_.anchors.end()) continue;  // admission drops these (counted there)
+    const RangingAnchor& anchor = a->second;
+    const double sigma = e.sigma_m > 0 ? e.sigma_m : anchor.sigma_m > 0 ? anchor.sigma_m : config_.sigma_m;
+    ranges.push_back({anchor.position, (e.range_m - anchor.bias_m) / anchor.scale, sigma});
+  }
+  RangeSolveOptions options;
+  options.known_height = config_.height;
+  options.z_range = config_.z_range;
+  RangeFix fix;
+  try {
+    fix = fix_by_method(config_.method, ranges, options, "ranging.method");
+  } catch (const std::exception&) {  // a solver's own failure: one firing lost, the input goes on
+    fix.ok = false;
+    fix.status = RangeFixStatus::kFailed;
+  }
+  if (!fix.ok) {
+    ++counters_.failed[range_fix_status_word(fix.status)];
+    return std::nullopt;
+  }
+  ++counters_.fixes;
+  return range_fix_observation(fix, tag->second, static_cast<int>(f.tag), admitted.t_mono_ns, t_real_ns);
+}
+
+}  // namespace ips

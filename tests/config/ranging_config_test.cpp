@@ -1,0 +1,58 @@
+// The `ranging:` section (docs/configuration.md, "Ranging"): what it reads, its defaults, and
+// each mistake refused with the file, line and key.
+#include "config_scratch.h"
+
+namespace ips {
+namespace {
+
+class RangingConfig : public test::ConfigScratch {
+ protected:
+  static std::string with(const std::string& extra, const std::string& anchors = kThree,
+                          const std::string& tags = "[{id: 7, marker: 20}]") {
+    return test::kSyntheticRedConfig + "ranging:\n  port: 5800\n  anchors: " + anchors + "\n  tags: " + tags + "\n" +
+           extra;
+  }
+  static constexpr const char* kThree =
+      "[{id: 1, x: 0, y: 0, z: 2.5}, {id: 2, x: 4, y: 0, z: 1}, {id: 3, x: 4, y: 3, z: 2}]";
+};
+
+TEST_F(RangingConfig, OffWithoutTheSectionAndItsDefaultsWithIt) {
+  EXPECT_FALSE(parse_text(test::kSyntheticRedConfig).ranging.enabled());
+  const auto c = parse_text(with("")).ranging;
+  EXPECT_TRUE(c.enabled());
+  EXPECT_EQ(c.input.port, 5800);
+  EXPECT_EQ(c.input.address, "0.0.0.0");
+  EXPECT_EQ(c.method, "robust");
+  EXPECT_DOUBLE_EQ(c.sigma_m, 0.05);
+  EXPECT_FALSE(c.height.has_value());
+  ASSERT_EQ(c.anchors.size(), 3u);
+  EXPECT_EQ(c.anchors.at(2).position, Eigen::Vector3d(4, 0, 1));
+  EXPECT_DOUBLE_EQ(c.anchors.at(2).scale, 1.0);
+  EXPECT_EQ(c.tag_markers.at(7), 20);
+  // The input admits exactly the configured tags and anchors.
+  EXPECT_EQ(c.input.tags, (std::set<std::uint32_t>{7}));
+  EXPECT_EQ(c.input.anchors, (std::set<std::uint32_t>{1, 2, 3}));
+}
+
+TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
+  expect_refused(with("  method: median5\n"), {"ipsd.yaml:", "ranging.method", "unknown value 'median5'", "median4"});
+  expect_refused(with("  height: 0.1\n  z_range: [0, 2]\n"), {"ranging.z_range", "not both"});
+  expect_refused(with("  z_range: [2, 0]\n"), {"ranging.z_range", "zmin <= zmax"});
+  expect_refused(with("  allow: [10.0.0.1/8]\n"), {"ranging.allow[0]", "not an IPv4 subnet"});
+  expect_refused(with("", "[{id: 1, x: 0, y: 0, z: 2}, {id: 1, x: 4, y: 0, z: 1}, {id: 3, x: 4, y: 3, z: 2}]"),
+                 {"ranging.anchors[1].id", "listed twice"});
+  expect_refused(with("", "[{id: 1, x: 0, y: 0, z: 2}, {id: 2, x: 4, y: 0, z: 1}]"),
+                 {"ranging.anchors", "at least 3 anchors"});
+  expect_refused(with("", "[{id: 1, x: 0, y: 0}, {id: 2, x: 4, y: 0, z: 1}, {id: 3, x: 4, y: 3, z: 2}]"),
+                 {"ranging.anchors[0].z", "required"});
+  expect_refused(with("", kThree, "[{id: -1, marker: 3}]"), {"ranging.tags[0].id", "0..2147483647"});
+  expect_refused(with("", kThree, "[{id: 7}]"), {"ranging.tags[0].marker", "required"});
+  expect_refused(with("", kThree, "[{id: 7, marker: 9}]") + "markers: {ids: {9: {fixed: [1, 2, 0]}}}\n",
+                 {"ranging.tags", "fixed marker"});
+  expect_refused(with("  prot: 5801\n"), {"ranging.prot", "unknown key"});
+  expect_refused(test::kSyntheticRedConfig + "ranging: {anchors: " + kThree + ", tags: [{id: 7, marker: 20}]}\n",
+                 {"ranging.port", "required"});
+}
+
+}  // namespace
+}  // namespace ips

@@ -1,0 +1,88 @@
+// A firing taken by the range input -> the fix fusion gets (ips/input/range_fixer.h): each
+// anchor's bias and scale undone before solving, the tag's marker, what is left out and why.
+#include "ips/input/range_fixer.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace ips {
+namespace {
+
+RangingConfig lab() {
+  RangingConfig c;
+  c.anchors[1].position = {0, 0, 2.5};
+  c.anchors[2].position = {4, 0, 1.0};
+  c.anchors[3].position = {4, 3, 2.5};
+  c.anchors[4].position = {0, 3, 1.0};
+  c.tag_markers[7] = 20;
+  return c;
+}
+
+AdmittedFiring firing_at(const RangingConfig& c, const Eigen::Vector3d& tag) {
+  AdmittedFiring f;
+  f.firing.tag = 7;
+  f.t_mono_ns = 5'000'000'000;
+  for (const auto& [id, a] : c.anchors) f.firing.entries.push_back({id, false, (a.position - tag).norm(), 0.0});
+  return f;
+}
+
+TEST(RangeFixer, ExactRangesGiveTheTagsPositionAsItsMarker) {
+  RangeFixer fixer(lab());
+  const Eigen::Vector3d tag(1.5, 1.2, 0.3);
+  const auto o = fixer.fix(firing_at(lab(), tag), 42);
+  ASSERT_TRUE(o.has_value());
+  EXPECT_LT((o->p_world - tag).norm(), 1e-6);
+  EXPECT_EQ(o->id, 20);
+  EXPECT_EQ(o->camera_index, 7) << "the tag is the stream";
+  EXPECT_EQ(o->source, ObservationSource::kRanges);
+  EXPECT_FALSE(o->has_yaw);
+  EXPECT_EQ(o->t_mono_ns, 5'000'000'000);
+  EXPECT_EQ(o->t_real_ns, 42);
+  // Default sigma 5 cm: the covariance is of that order, not zero and not metres.
+  EXPECT_GT(o->covariance.trace(), 1e-4);
+  EXPECT_LT(o->covariance.trace(), 1.0);
+  EXPECT_EQ(fixer.counters().fixes, 1u);
+}
+
+TEST(RangeFixer, AnAnchorsBiasAndScaleAreUndoneBeforeSolving) {
+  // Anchor 2's module reads 1 % long plus 4 cm: range' = 1.01 range + 0.04. With bias 0.04 and
+  // scale 1.01 configured the fix is exact again; without, it is not.
+  RangingConfig c = lab();
+  const Eigen::Vector3d tag(2.5, 1.0, 0.3);
+  AdmittedFiring f = firing_at(c, tag);
+  for (auto& e : f.firing.entries)
+    if (e.reference == 2) e.range_m = 1.01 * e.range_m + 0.04;
+  RangeFixer raw(c);
+  const auto wrong = raw.fix(f, 0);
+  ASSERT_TRUE(wrong.has_value());
+  EXPECT_GT((wrong->p_world - tag).norm(), 0.01);
+  c.anchors[2].bias_m = 0.04;
+  c.anchors[2].scale = 1.01;
+  RangeFixer corrected(c);
+  const auto right = corrected.fix(f, 0);
+  ASSERT_TRUE(right.has_value());
+  EXPECT_LT((right->p_world - tag).norm(), 1e-6);
+}
+
+TEST(RangeFixer, TagReferencesAreLeftOutAndTooFewAnchorsAreCountedByTheirWord) {
+  RangeFixer fixer(lab());
+  AdmittedFiring f = firing_at(lab(), {1.0, 1.0, 0.5});
+  f.firing.entries.resize(3);                       // three anchors: too few in 3-D
+  f.firing.entries.push_back({8, true, 1.5, 0.0});  // another tag: not used yet
+  EXPECT_FALSE(fixer.fix(f, 0).has_value());
+  EXPECT_EQ(fixer.counters().tag_references_skipped, 1u);
+  EXPECT_EQ(fixer.counters().fixes, 0u);
+  ASSERT_EQ(fixer.counters().failed.count("too_few"), 1u);
+  EXPECT_EQ(fixer.counters().failed.at("too_few"), 1u);
+  // At a known height three anchors are enough.
+  RangingConfig at_height = lab();
+  at_height.height = 0.5;
+  RangeFixer ground(at_height);
+  const auto o = ground.fix(f, 0);
+  ASSERT_TRUE(o.has_value());
+  EXPECT_LT((o->p_world - Eigen::Vector3d(1.0, 1.0, 0.5)).norm(), 1e-6);
+}
+
+}  // namespace
+}  // namespace ips
