@@ -82,6 +82,12 @@ def tj_small(jpeg, w, h, gray, samp, progressive, quality):
 
 def main():
     copy("config", "config/ipsd.yaml", "config/demo.yaml")
+    put("config", "ranging.yaml",
+        "cameras:\n  - {name: red, source: synthetic, scene: scene.yaml}\nmodel_file: model.json\n"
+        "ranging:\n  port: 5800\n  allow: [10.0.0.0/8, 192.168.1.7]\n  psk: k\n  method: median4\n  z_range: [0, 2]\n"
+        "  anchors:\n    - {id: 1, x: 0, y: 0, z: 2.5, bias: 0.02, scale: 1.001, sigma: 0.04}\n"
+        "    - {id: 2, x: 4, y: 0, z: 1}\n    - {id: 3, x: 4, y: 3, z: 2.5}\n    - {id: 4, x: 0, y: 3, z: 1}\n"
+        "  tags:\n    - {id: 7, marker: 20}\n")
     copy("scene", "config/scenes/ou2023.yaml", "config/scenes/calib_lenses.yaml", "config/scenes/survey_lab.yaml")
     put("scene", "ranging.yaml",
         "markers:\n  - {id: 1, height: 0.1, trajectory: {type: circle, center: [3, 2], radius: 0.45, speed: 0.2}}\n"

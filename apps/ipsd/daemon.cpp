@@ -60,7 +60,8 @@ Daemon::Daemon(std::filesystem::path config_path, Mode mode) : config_path_(std:
   runtime_.set(build_runtime(config, nullptr, mode == Mode::kCheck));
   if (mode == Mode::kRun && !config.status.socket.empty()) status_socket_.emplace(config.status.socket);
   // The range input binds at start, so a taken port stops ipsd (exit 2) naming ranging.port.
-  if (mode == Mode::kRun && config.ranging.enabled()) ranges_ = std::make_unique<RangeLink>(config.ranging);
+  if (mode == Mode::kRun && config.ranging.enabled())
+    ranges_ = std::make_unique<RangeLink>(config.ranging, latest_states_);
 }
 
 Daemon::~Daemon() { stop_pipeline(); }
@@ -111,6 +112,7 @@ bool Daemon::start_pipeline(std::shared_ptr<const Runtime> runtime, std::vector<
   }
   p->fusion = std::make_unique<FusionWorker>(runtime_, p->queue, p->camera_ptrs, p->fusion_stats);
   p->fusion->set_fixed_monitor(&p->fixed);
+  p->fusion->set_latest_states(&latest_states_);
   if (web_) {
     const auto taps = web_->set_cameras(p->names);
     for (std::size_t i = 0; i < p->cameras.size(); ++i) p->cameras[i]->set_tap(taps[i]);
@@ -152,7 +154,8 @@ void Daemon::reload() {
     // is shared for that moment); its firing gate and counters start afresh.
     std::unique_ptr<RangeLink> ranges;
     const bool ranging_changed = config.ranging != old->config.ranging;
-    if (ranging_changed && config.ranging.enabled()) ranges = std::make_unique<RangeLink>(config.ranging);
+    if (ranging_changed && config.ranging.enabled())
+      ranges = std::make_unique<RangeLink>(config.ranging, latest_states_);
     // Everything loaded: apply.
     spdlog::set_level(spdlog::level::from_str(config.log_level));
     if (config.status.socket != old->config.status.socket) {

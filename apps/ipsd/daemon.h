@@ -54,6 +54,7 @@ class Daemon {
   std::unique_ptr<Pipeline> pipeline_;
   std::optional<StatusSocket> status_socket_;
   std::unique_ptr<ips::WebServer> web_;  // web view (web.listen), started by run()
+  LatestStates latest_states_;           // published states, for the range input's mobile anchors
   std::unique_ptr<RangeLink> ranges_;    // ranging: (absent = nullptr); outlives camera restarts
   std::int64_t started_ns_ = 0;
   std::int64_t synthetic_epoch_ns_ = 0;

@@ -233,6 +233,7 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     b.yaw_rate = f.yaw_rate;
     d.bodies.push_back(std::move(b));
   }
+  if (latest_) latest_->update(states);
   rt.publisher->publish(d);
   if (web_) web_->publish(d);                     // a copy into a bounded inbox; never waits for browsers
   const std::int64_t sent = ips::monotonic_ns();  // after the last sendto of the update

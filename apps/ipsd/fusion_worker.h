@@ -12,6 +12,7 @@
 #include "ips/fusion/fixed_markers.h"
 #include "ips/fusion/track_fusion.h"
 #include "ips/web/web.h"
+#include "latest_states.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -24,6 +25,8 @@ class FusionWorker {
   void set_web(ips::WebServer* web) { web_ = web; }
   /// Every camera batch is also checked against the fixed markers (before start(); owned by the caller).
   void set_fixed_monitor(ips::FixedMarkerMonitor* monitor) { fixed_ = monitor; }
+  /// Where every published marker state is kept for the range input (mobile anchors).
+  void set_latest_states(LatestStates* latest) { latest_ = latest; }
   void start();
   void request_stop() { stop_ = true; }
   void join();
@@ -39,6 +42,7 @@ class FusionWorker {
   FusionStats& stats_;
   ips::WebServer* web_ = nullptr;
   ips::FixedMarkerMonitor* fixed_ = nullptr;
+  LatestStates* latest_ = nullptr;
   std::atomic<bool> stop_{false};
   std::thread thread_;
   std::uint32_t update_ = 0;

@@ -4,7 +4,8 @@
 
 namespace ipsd {
 
-RangeLink::RangeLink(const ips::RangingConfig& config) : config_(config), fixer_(config) {
+RangeLink::RangeLink(const ips::RangingConfig& config, const LatestStates& latest)
+    : config_(config), fixer_(config, [&latest](int id) { return latest.of(id); }) {
   input_ = std::make_unique<ips::RangeInput>(config.input, "ranging",
                                              [this](ips::AdmittedFiring&& f) { on_firing(std::move(f)); });
 }
@@ -50,7 +51,8 @@ nlohmann::json RangeLink::status() const {
           {"unknown_references", in.unknown_references},
           {"fixes", fixes.fixes},
           {"fixes_failed", failed},
-          {"tag_references_skipped", fixes.tag_references_skipped},
+          {"mobile_references", fixes.mobile_references},
+          {"mobile_references_unknown", fixes.mobile_references_unknown},
           {"fixes_dropped_while_restarting", detached_}};
 }
 

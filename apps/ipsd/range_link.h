@@ -11,6 +11,7 @@
 
 #include "ips/input/range_fixer.h"
 #include "ips/input/range_input.h"
+#include "latest_states.h"
 #include "pipeline.h"
 
 namespace ipsd {
@@ -18,7 +19,8 @@ namespace ipsd {
 class RangeLink {
  public:
   /// Binds the port; throws ips::InputError naming `ranging.*` if it cannot.
-  explicit RangeLink(const ips::RangingConfig& config);
+  /// `latest`: the published states, where a tag ranges to another robot (outlives this).
+  RangeLink(const ips::RangingConfig& config, const LatestStates& latest);
   ~RangeLink();
   RangeLink(const RangeLink&) = delete;
   RangeLink& operator=(const RangeLink&) = delete;

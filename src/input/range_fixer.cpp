@@ -1,5 +1,6 @@
 #include "ips/input/range_fixer.h"
 
+#include <cmath>
 #include <exception>
 #include <vector>
 
@@ -19,7 +20,21 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
   ranges.reserve(f.entries.size());
   for (const RangeEntry& e : f.entries) {
     if (e.reference_is_tag) {
-      ++counters_.tag_references_skipped;
+      const auto other = config_.tag_markers.find(e.reference);
+      std::optional<MobileReference> state;
+      if (other != config_.tag_markers.end() && state_of_) state = state_of_(other->second);
+      const std::int64_t age = state ? admitted.t_mono_ns - state->t_mono_ns : 0;
+      if (!state || age > RangeFixer::kMobileReferenceAge || age < -RangeFixer::kMobileReferenceAge) {
+        ++counters_.mobile_references_unknown;
+        continue;
+      }
+      const double dt = 1e-9 * static_cast<double>(age);
+      const double sigma = e.sigma_m > 0 ? e.sigma_m : config_.sigma_m;
+      const double moved = 0.5 * 1.0 * dt * dt;  // an unknown acceleration of up to 1 m/s^2
+      const double reference_variance = state->covariance.trace() / 3.0 + moved * moved;
+      ranges.push_back(
+          {state->position + dt * state->velocity, e.range_m, std::sqrt(sigma * sigma + reference_variance)});
+      ++counters_.mobile_references;
       continue;
     }
     const auto a = config_.anchors.find(e.reference);

@@ -162,11 +162,18 @@ TEST_F(IpsdFusionTest, MarkersAt1MpsUnsynchronisedCamerasWithinACentimetre) {
   const Run r = run(config("markers:\n  height: 0.0\n  ids:\n    1: {height: 0.15}\n"
                            "    2: {height: 0.10}\n    3: {height: 0.30}\n    4: {height: 0.02}\n"),
                     6.0, [](const std::vector<Record>& records) {
-                      // Under the sanitizers a fast-marker record comes about every 15 s (7 in
-                      // 120 s measured): three are enough to check accuracy and order there.
-                      const long wanted = test::kSanitized ? 3 : 10;
-                      return std::count_if(records.begin(), records.end(),
-                                           [](const Record& x) { return x.m.id == 1 || x.m.id == 2; }) >= wanted;
+                      // Until there are records enough to judge (asserted below), whatever the
+                      // machine's load: a busy one renders fewer synthetic frames per second
+                      // (13 fast-marker records in 6 s beside another daemon's test, 120 alone).
+                      // Under the sanitizers one comes about every 15 s (7 in 120 s measured):
+                      // three are enough to check accuracy and order there.
+                      const long fast = std::count_if(records.begin(), records.end(),
+                                                      [](const Record& x) { return x.m.id == 1 || x.m.id == 2; });
+                      if (test::kTimeScale != 1.0) return fast >= 3;
+                      const long several = std::count_if(records.begin(), records.end(), [](const Record& x) {
+                        return std::popcount(x.m.camera_mask) >= 2;
+                      });
+                      return fast > 20 && several > 5;
                     });
   ASSERT_FALSE(r.records.empty()) << r.log;
   expect_per_marker_order(r.records);

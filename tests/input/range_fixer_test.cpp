@@ -65,23 +65,53 @@ TEST(RangeFixer, AnAnchorsBiasAndScaleAreUndoneBeforeSolving) {
   EXPECT_LT((right->p_world - tag).norm(), 1e-6);
 }
 
-TEST(RangeFixer, TagReferencesAreLeftOutAndTooFewAnchorsAreCountedByTheirWord) {
+TEST(RangeFixer, TooFewAnchorsAreCountedByTheirWordAndAKnownHeightNeedsOneLess) {
   RangeFixer fixer(lab());
   AdmittedFiring f = firing_at(lab(), {1.0, 1.0, 0.5});
-  f.firing.entries.resize(3);                       // three anchors: too few in 3-D
-  f.firing.entries.push_back({8, true, 1.5, 0.0});  // another tag: not used yet
+  f.firing.entries.resize(3);  // three anchors: too few in 3-D
   EXPECT_FALSE(fixer.fix(f, 0).has_value());
-  EXPECT_EQ(fixer.counters().tag_references_skipped, 1u);
   EXPECT_EQ(fixer.counters().fixes, 0u);
   ASSERT_EQ(fixer.counters().failed.count("too_few"), 1u);
   EXPECT_EQ(fixer.counters().failed.at("too_few"), 1u);
-  // At a known height three anchors are enough.
   RangingConfig at_height = lab();
   at_height.height = 0.5;
   RangeFixer ground(at_height);
   const auto o = ground.fix(f, 0);
   ASSERT_TRUE(o.has_value());
   EXPECT_LT((o->p_world - Eigen::Vector3d(1.0, 1.0, 0.5)).norm(), 1e-6);
+}
+
+TEST(RangeFixer, AnotherRobotAsPublishedIsAMobileAnchorMovedToTheFiringTime) {
+  // Three anchors and a range to tag 8, whose robot (marker 21) was published 100 ms before the
+  // firing at (2.9, 2.0, 0.3) moving at (1, 0, 0) m/s: at the firing it is at (3.0, 2.0, 0.3),
+  // and the range is to that point. Four references: the 3-D fix is exact.
+  RangingConfig c = lab();
+  c.tag_markers[8] = 21;
+  const Eigen::Vector3d tag(1.0, 1.0, 0.5), robot(3.0, 2.0, 0.3);
+  AdmittedFiring f = firing_at(c, tag);
+  f.firing.entries.resize(3);
+  f.firing.entries.push_back({8, true, (robot - tag).norm(), 0.0});
+  MobileReference published;
+  published.position = {2.9, 2.0, 0.3};
+  published.velocity = {1.0, 0.0, 0.0};
+  published.covariance = 1e-6 * Eigen::Matrix3d::Identity();
+  published.t_mono_ns = f.t_mono_ns - 100'000'000;
+  RangeFixer fixer(c, [&](int id) -> std::optional<MobileReference> {
+    if (id == 21) return published;
+    return std::nullopt;
+  });
+  const auto o = fixer.fix(f, 0);
+  ASSERT_TRUE(o.has_value());
+  EXPECT_LT((o->p_world - tag).norm(), 1e-6);
+  EXPECT_EQ(fixer.counters().mobile_references, 1u);
+  // Published too long before the firing (0.6 s > kMobileReferenceAge): left out, too few left.
+  published.t_mono_ns = f.t_mono_ns - 600'000'000;
+  EXPECT_FALSE(fixer.fix(f, 0).has_value());
+  EXPECT_EQ(fixer.counters().mobile_references_unknown, 1u);
+  // Without any published state (no lookup at all) the same.
+  RangeFixer alone(c);
+  EXPECT_FALSE(alone.fix(f, 0).has_value());
+  EXPECT_EQ(alone.counters().mobile_references_unknown, 1u);
 }
 
 }  // namespace

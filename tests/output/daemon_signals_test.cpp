@@ -1,4 +1,4 @@
-// The real ipsd with every output type and the web view on: `systemctl reload` (SIGHUP) reloads
+// The real ipsd with every output type, the web view and the range input on: `systemctl reload` (SIGHUP) reloads
 // and keeps the stream and its subscribers, SIGTERM stops it with exit 0, and no thread of the
 // process — ours, Cyclone DDS's, CivetWeb's — has the stop/reload signals unblocked (a thread
 // that had them would take SIGHUP itself and die of it: the ROS 2 writer once did).
@@ -94,6 +94,10 @@ class DaemonSignalsTest : public ::testing::Test {
     c += "  - {type: ros2, domain: " + std::to_string(kDomain) + "}\n";
     c += "web: {listen: \"127.0.0.1:" + std::to_string(web_port_) + "\", floor: [0, 0, 4.88, 4.88]}\n";
     c += "status: {interval: 0, socket: " + socket().string() + "}\n";
+    if (ranging_port_ == 0) ranging_port_ = test::free_udp_port();
+    c += "ranging: {port: " + std::to_string(ranging_port_) +
+         ", address: 127.0.0.1, height: 0.1, anchors: [{id: 1, x: 0, y: 0, z: 2.5}, {id: 2, x: 4, y: 0, z: 1}, "
+         "{id: 3, x: 4, y: 4, z: 2.5}], tags: [{id: 7, marker: 20}]}\n";
     std::ofstream(config()) << c;
   }
   static fs::path config() { return *dir_ / "ipsd.yaml"; }
@@ -124,6 +128,7 @@ class DaemonSignalsTest : public ::testing::Test {
   std::uint16_t sub_port_ = 0;
   std::array<std::uint16_t, 3> other_ports_{};  // broadcast, multicast, mavlink
   int web_port_ = 0;
+  std::uint16_t ranging_port_ = 0;  // the range input's; a test may change it before a reload
 };
 fs::path* DaemonSignalsTest::dir_ = nullptr;
 
@@ -147,6 +152,10 @@ TEST_F(DaemonSignalsTest, ReloadsTwiceKeepingItsSubscribersThenStopsWithExitZero
       << test::read_file(listen_log);
 
   for (int reload = 1; reload <= 2; ++reload) {
+    if (reload == 2) {  // the second moves the range input to another port
+      ranging_port_ = test::free_udp_port();
+      write_config(rx.port);
+    }
     ASSERT_EQ(::kill(pid, SIGHUP), 0);
     ASSERT_TRUE(wait_for_log(pid, "reload: applied", reload, 30)) << "reload " << reload << ":\n" << log();
     EXPECT_FALSE(test::wait_exit(pid, std::chrono::milliseconds(0))) << "ipsd died at reload " << reload << ":\n"
@@ -159,6 +168,8 @@ TEST_F(DaemonSignalsTest, ReloadsTwiceKeepingItsSubscribersThenStopsWithExitZero
   ASSERT_EQ(status["outputs"].size(), 6u) << status.dump();
   EXPECT_EQ(status["outputs"][4].value("subscribers", 0), 1) << status.dump();
   EXPECT_EQ(count(log(), " subscribed ("), 1) << log();
+  EXPECT_EQ(status["ranging"].value("port", 0), ranging_port_) << status.dump();
+  EXPECT_EQ(count(log(), "reload: ranging input reopened on port " + std::to_string(ranging_port_)), 1) << log();
   const std::size_t listened = test::read_file(listen_log).size();
   EXPECT_TRUE(test::wait_until([&] { return test::read_file(listen_log).size() > listened; }, 5 * test::kTimeScale))
       << "the subscriber got nothing after the reloads:\n"

@@ -5,9 +5,12 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
+
+#include <Eigen/Core>
 
 #include "ips/core/observation.h"
 #include "ips/input/range_admission.h"
@@ -18,17 +21,37 @@ namespace ips {
 struct RangeFixCounters {
   std::uint64_t fixes = 0;                      ///< firings solved and handed to fusion
   std::map<std::string, std::uint64_t> failed;  ///< firings not solved, by range_fix_status_word
-  /// Entries ranging to another tag: not used yet (a robot as a mobile anchor needs its
-  /// published position; docs/ranging.md).
-  std::uint64_t tag_references_skipped = 0;
+  std::uint64_t mobile_references = 0;          ///< ranges to another tag used, its robot as a mobile anchor
+  /// Ranges to another tag left out: its robot has no published position within
+  /// RangeFixer::kMobileReferenceAge of the firing.
+  std::uint64_t mobile_references_unknown = 0;
+};
+
+/// A robot's latest published state, where another robot's tag ranges to it.
+struct MobileReference {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();    ///< m/s; zero when not known
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of position, m^2
+  std::int64_t t_mono_ns = 0;
 };
 
 class RangeFixer {
  public:
-  explicit RangeFixer(RangingConfig config) : config_(std::move(config)) {}
+  /// The latest published state of a marker id, if any (the daemon's fused stream).
+  using StateOf = std::function<std::optional<MobileReference>(int marker_id)>;
+  /// A mobile reference's state is used this long before or after the firing, moved to the
+  /// firing time by its velocity (a camera's state is 100-300 ms old when a firing arrives on
+  /// a busy machine); older, the range to it is left out. The move's own uncertainty, half an
+  /// unknown 1 m/s^2 times the age squared, is added to the range's.
+  static constexpr std::int64_t kMobileReferenceAge = 500'000'000;
+
+  explicit RangeFixer(RangingConfig config, StateOf state_of = {})
+      : config_(std::move(config)), state_of_(std::move(state_of)) {}
 
   /// The observation of `firing`'s tag at its firing time, or nullopt (counted) if it cannot
-  /// be solved. `t_real_ns` is the firing time on this host's CLOCK_REALTIME.
+  /// be solved. `t_real_ns` is the firing time on this host's CLOCK_REALTIME. A range to
+  /// another tag uses that tag's robot, as published, as an anchor: its position's variance
+  /// (the mean over the axes) is added to the range's.
   std::optional<WorldObservation> fix(const AdmittedFiring& firing, std::int64_t t_real_ns);
 
   const RangeFixCounters& counters() const { return counters_; }
@@ -36,6 +59,7 @@ class RangeFixer {
 
  private:
   RangingConfig config_;
+  StateOf state_of_;
   RangeFixCounters counters_;
 };
 
