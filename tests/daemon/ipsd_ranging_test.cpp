@@ -70,6 +70,34 @@ struct Published {
   std::uint32_t camera_mask;
 };
 
+/// The beacon's records in ipsd's stream, read on a thread of its own beside the sender.
+class TagRecords {
+ public:
+  TagRecords(test::UdpReceiver& rx, std::int64_t t0_real)
+      : thread_([this, &rx, t0_real] {
+          while (!done_) {
+            const auto bytes = rx.receive(100);
+            if (!bytes) continue;
+            const Datagram d = decode_datagram(*bytes);
+            for (const auto& m : d.markers)
+              if (m.id == static_cast<std::uint32_t>(kTagMarker))
+                published_.push_back({1e-9 * static_cast<double>(d.capture_realtime_ns + 1000LL * m.dt_us - t0_real),
+                                      Eigen::Vector3d(m.x, m.y, m.z), m.camera_mask});
+          }
+        }) {}
+  ~TagRecords() { (void)stop(); }
+  std::vector<Published> stop() {
+    done_ = true;
+    if (thread_.joinable()) thread_.join();
+    return published_;
+  }
+
+ private:
+  std::atomic<bool> done_{false};
+  std::vector<Published> published_;
+  std::thread thread_;  // last: it uses the members above
+};
+
 class IpsdRangingTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -111,19 +139,7 @@ TEST_F(IpsdRangingTest, ABeaconThroughAFaultyTransportIsPublishedFromItsOwnFirin
 
   // The receiver runs beside the sender.
   const std::int64_t t0_real = realtime_ns();
-  std::atomic<bool> done{false};
-  std::vector<Published> published;
-  std::thread reader([&] {
-    while (!done) {
-      const auto bytes = rx.receive(100);
-      if (!bytes) continue;
-      const Datagram d = decode_datagram(*bytes);
-      for (const auto& m : d.markers)
-        if (m.id == static_cast<std::uint32_t>(kTagMarker))
-          published.push_back({1e-9 * static_cast<double>(d.capture_realtime_ns + 1000LL * m.dt_us - t0_real),
-                               Eigen::Vector3d(m.x, m.y, m.z), m.camera_mask});
-    }
-  });
+  TagRecords records(rx, t0_real);
 
   // Firings at 10 Hz for 6 s, ranges with 1 cm noise. Transport: each datagram delayed by
   // 0-250 ms (so they arrive out of order, within the reorder window), released in bursts
@@ -176,8 +192,7 @@ TEST_F(IpsdRangingTest, ABeaconThroughAFaultyTransportIsPublishedFromItsOwnFirin
       (pending[i].outsider ? outside : inside).send(pending[i].bytes, port);
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  done = true;
-  reader.join();
+  const std::vector<Published> published = records.stop();
   const auto status = nlohmann::json::parse(test::read_unix_socket((dir_ / "status.sock").string()));
   ASSERT_TRUE(status.contains("ranging")) << status.dump();
   const auto& r = status["ranging"];
@@ -259,19 +274,7 @@ TEST_F(IpsdRangingTest, ARobotTheCamerasSeeIsAnAnchorForOneTheyDoNot) {
       nlohmann::json::parse(test::read_unix_socket((dir_ / "status.sock").string()))["synthetic_epoch_mono_ns"];
 
   const std::int64_t t0_real = realtime_ns();
-  std::atomic<bool> done{false};
-  std::vector<Published> published;
-  std::thread reader([&] {
-    while (!done) {
-      const auto bytes = rx.receive(100);
-      if (!bytes) continue;
-      const Datagram d = decode_datagram(*bytes);
-      for (const auto& m : d.markers)
-        if (m.id == static_cast<std::uint32_t>(kTagMarker))
-          published.push_back({1e-9 * static_cast<double>(d.capture_realtime_ns + 1000LL * m.dt_us - t0_real),
-                               Eigen::Vector3d(m.x, m.y, m.z), m.camera_mask});
-    }
-  });
+  TagRecords records(rx, t0_real);
   std::mt19937 rng(5);
   std::normal_distribution<double> noise(0.0, 0.005);
   const Sender sender("127.0.0.1");
@@ -292,8 +295,7 @@ TEST_F(IpsdRangingTest, ARobotTheCamerasSeeIsAnAnchorForOneTheyDoNot) {
     sender.send(encode_range_firing(f, ""), port);
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  done = true;
-  reader.join();
+  const std::vector<Published> published = records.stop();
   const auto r = nlohmann::json::parse(test::read_unix_socket((dir_ / "status.sock").string()))["ranging"];
   std::vector<double> errors;
   for (const auto& p : published) errors.push_back((p.p - beacon(p.t)).head<2>().norm());
