@@ -295,8 +295,11 @@ Eigen::Vector3d TrackFusion::path_velocity(const Track& track) const {
 void TrackFusion::finish(FusedMarker& f, Track& track) {
   FusedMarker filtered = f;
   if (f.camera_mask) {
-    const double n = std::max(1, std::popcount(f.camera_mask));
-    between_cameras_.update(filtered, Eigen::Vector3d::Constant(options_.camera_sigma_m * options_.camera_sigma_m / n));
+    if (track.other_sources) {  // a camera-only object never needs the hand-over
+      const double n = std::max(1, std::popcount(f.camera_mask));
+      between_cameras_.update(filtered,
+                              Eigen::Vector3d::Constant(options_.camera_sigma_m * options_.camera_sigma_m / n));
+    }
   } else if (f.sources & ~source_bit(ObservationSource::kCamera)) {
     between_cameras_.update(filtered, f.covariance.diagonal());
     f.p_world = filtered.p_world;
@@ -338,6 +341,7 @@ void TrackFusion::add(const FrameObservations& batch, const FusionMethod& method
                                 [](std::int64_t x, const WorldObservation& w) { return x < w.t_mono_ns; });
     q.insert(pos, o);
     track.newest_ns = std::max(track.newest_ns, o.t_mono_ns);
+    track.other_sources |= o.source != ObservationSource::kCamera;
     prune(track);
     seen.push_back(o.id);
   }

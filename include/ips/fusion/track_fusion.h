@@ -97,6 +97,9 @@ class TrackFusion {
     /// no position of their own to fit.
     std::deque<std::pair<std::int64_t, Eigen::Vector3d>> path;
     double yaw = 0.0;  ///< last published heading, held while only headingless sources see the object
+    /// A source other than the cameras has seen the object: only then does between_cameras_
+    /// follow its camera records (a camera-only object never needs the hand-over).
+    bool other_sources = false;
   };
   /// The estimates of every stream at time t, each moved to t by its own velocity; the
   /// streams' velocities are summed and counted, the cameras' apart from the other sources'.
