@@ -27,9 +27,13 @@ import time
 MAGIC = b"IPSD"
 VERSIONS = (1, 2)  # 2 = with rigid bodies (a daemon with `bodies:` configured)
 FLAG_VELOCITY = 0x0001
+FLAG_SOURCES = 0x0002                       # records name what placed them (ipsd with ranging:)
+SOURCE_NAMES = ("camera", "ranges")         # sources bit i -> name; later bits are later sources
+MARKER_HAS_YAW = 0x0001
 HEADER = struct.Struct("<4sHHIHHBBHIqqq")  # 48 bytes, little-endian
 RECORD = struct.Struct("<IIffffffi")        # 36 bytes
-VELOCITY = struct.Struct("<fff")            # +12 bytes when FLAG_VELOCITY
+VELOCITY = struct.Struct("<fff")            # +12 bytes when FLAG_VELOCITY (always there with FLAG_SOURCES)
+SOURCES = struct.Struct("<HH")              # bytes 48-51 with FLAG_SOURCES: sources, marker_flags
 BODY_SECTION = struct.Struct("<HH")         # version 2: body_count, body_record_size
 BODY = struct.Struct("<32sIffffffffffiHH4I")  # 100 bytes: every body record has these
 BODY_VELOCITY = struct.Struct("<ffff")      # bytes 100-115 (records of >= 116 bytes): vx vy vz yaw_rate
@@ -122,7 +126,8 @@ def decode(data: bytes) -> dict:
     if version not in VERSIONS:
         raise Malformed(f"ipsd stream version {version}: this client reads versions 1 and 2; update it")
     velocity = bool(flags & FLAG_VELOCITY)
-    if record_size < RECORD.size + (VELOCITY.size if velocity else 0):
+    sources = bool(flags & FLAG_SOURCES)
+    if record_size < RECORD.size + (VELOCITY.size + SOURCES.size if sources else VELOCITY.size if velocity else 0):
         raise Malformed(f"record_size {record_size} too small")
     end = HEADER.size + count * record_size
     bodies = []
@@ -164,13 +169,17 @@ def decode(data: bytes) -> dict:
              "quality": quality, "spread": spread, "dt_us": dt_us}
         if velocity:
             m["vx"], m["vy"], m["vz"] = VELOCITY.unpack_from(data, off + RECORD.size)
+        if sources:
+            bits, mflags = SOURCES.unpack_from(data, off + RECORD.size + VELOCITY.size)
+            m["sources"] = [n for i, n in enumerate(SOURCE_NAMES) if bits >> i & 1]
+            m["has_yaw"] = bool(mflags & MARKER_HAS_YAW)
         if not all(math.isfinite(m[k]) for k in ("x", "y", "z", "yaw")):
             raise Malformed("non-finite position")
         markers.append(m)
     return {"type": "ips.positions", "version": version, "seq": seq, "update": update,
             "part": part, "parts": parts, "t_capture_real_ns": t_real,
             "t_capture_mono_ns": t_mono, "t_publish_real_ns": t_pub,
-            "velocity": velocity, "markers": markers, **({"bodies": bodies} if version == 2 else {})}
+            "velocity": velocity, **({"sources": True} if sources else {}), "markers": markers, **({"bodies": bodies} if version == 2 else {})}
 
 
 def main() -> int:
@@ -226,6 +235,8 @@ def main() -> int:
                 line = (f"seq {d['seq']:6d}  id {m['id']:3d}  x {m['x']:7.3f}  y {m['y']:7.3f}  "
                         f"z {m['z']:6.3f} m  yaw {math.degrees(m['yaw']):7.1f} deg  "
                         f"cams 0x{m['cameras']:02x}  age {age_ms:6.1f} ms")
+                if "ranges" in m.get("sources", []):
+                    line += "  +ranges" if m["cameras"] else "  ranges"
                 if d["velocity"]:
                     line += f"  v ({m['vx']:.2f}, {m['vy']:.2f}) m/s"
                 print(line, flush=True)

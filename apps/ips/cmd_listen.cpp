@@ -23,6 +23,7 @@
 #include "ips/core/error.h"
 #include "ips/output/packet_codec.h"
 #include "ips/output/subscription.h"
+#include "ips/output/wire.h"
 
 namespace cmd_listen {  // named, not anonymous: unique in a unity build
 
@@ -167,6 +168,9 @@ int run_listen(ListenOptions o) {
       for (auto& [id, v] : markers) {
         std::printf("id %4u  x %8.3f  y %8.3f  z %7.3f m  yaw %7.1f deg  cams 0x%02x", id, v.last.x, v.last.y, v.last.z,
                     v.last.yaw * 180.0 / std::numbers::pi, v.last.camera_mask);
+        // What placed it, where the stream says (IPS_WIRE_FLAG_SOURCES: ipsd with ranging).
+        if (v.last.sources & IPS_WIRE_SOURCE_RANGES) std::printf(v.last.camera_mask ? " +ranges" : " ranges");
+        if (!v.last.has_yaw) std::printf(" (yaw held)");
         print_rate_age(v.arrivals, v.capture_real_ns, now, real);
         if (v.last.vx != 0 || v.last.vy != 0) std::printf("  v (%.2f, %.2f) m/s", v.last.vx, v.last.vy);
         std::printf("\n");

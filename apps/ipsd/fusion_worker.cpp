@@ -11,6 +11,10 @@
 #include "ips/core/clock.h"
 #include "ips/output/wire.h"
 
+static_assert(ips::source_bit(ips::ObservationSource::kCamera) == IPS_WIRE_SOURCE_CAMERA &&
+                  ips::source_bit(ips::ObservationSource::kRanges) == IPS_WIRE_SOURCE_RANGES,
+              "the wire's source bits are the fusion's");
+
 namespace ipsd {
 
 namespace {
@@ -182,6 +186,8 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
   d.capture_realtime_ns = t_real_ns;
   d.update = update_++;
   d.has_velocity = rt.config.fusion.kalman;
+  // Where another source than the cameras can place a marker, every record says what placed it.
+  d.has_sources = rt.config.ranging.enabled();
   for (const ips::FusedMarker& f : states) {
     // The one place every output (UDP, ROS 2, MAVLink, subscriptions, web) gets markers from:
     // markers with publish: false (fixed references by default) stop here.
@@ -199,6 +205,8 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     m.vx = f.velocity.x();
     m.vy = f.velocity.y();
     m.vz = f.velocity.z();
+    m.sources = f.sources;
+    m.has_yaw = f.has_yaw;
     m.covariance = {f.covariance(0, 0), f.covariance(0, 1), f.covariance(0, 2),
                     f.covariance(1, 1), f.covariance(1, 2), f.covariance(2, 2)};
     d.markers.push_back(m);
@@ -233,7 +241,8 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     b.yaw_rate = f.yaw_rate;
     d.bodies.push_back(std::move(b));
   }
-  if (latest_) latest_->update(states);
+  // Only the range input reads these (robots as mobile anchors): no lock per update without it.
+  if (latest_ && rt.config.ranging.enabled()) latest_->update(states);
   rt.publisher->publish(d);
   if (web_) web_->publish(d);                     // a copy into a bounded inbox; never waits for browsers
   const std::int64_t sent = ips::monotonic_ns();  // after the last sendto of the update

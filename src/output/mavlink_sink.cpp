@@ -44,9 +44,9 @@ sockaddr_in resolve(const std::string& host, std::uint16_t port, const std::stri
 }
 
 /// Upper triangle (row-major, 21 entries) of the 6x6 pose covariance: position block from the
-/// fusion, roll/pitch/yaw variances `att_var`. All-zero position covariance = the fusion gave
-/// none: NaN in the first element, MAVLink's "unknown".
-std::array<float, 21> pose_covariance(const MavlinkPose& p, double att_var) {
+/// fusion, roll/pitch variances `att_var`, yaw variance `yaw_var`. All-zero position covariance
+/// = the fusion gave none: NaN in the first element, MAVLink's "unknown".
+std::array<float, 21> pose_covariance(const MavlinkPose& p, double att_var, double yaw_var) {
   std::array<float, 21> c{};
   c[0] = static_cast<float>(p.cov[0][0]);
   c[1] = static_cast<float>(p.cov[0][1]);
@@ -54,7 +54,8 @@ std::array<float, 21> pose_covariance(const MavlinkPose& p, double att_var) {
   c[6] = static_cast<float>(p.cov[1][1]);
   c[7] = static_cast<float>(p.cov[1][2]);
   c[11] = static_cast<float>(p.cov[2][2]);
-  c[15] = c[18] = c[20] = static_cast<float>(att_var);
+  c[15] = c[18] = static_cast<float>(att_var);
+  c[20] = static_cast<float>(yaw_var);
   if (p.cov[0][0] == 0 && p.cov[1][1] == 0 && p.cov[2][2] == 0) c[0] = kNaN;
   return c;
 }
@@ -142,6 +143,9 @@ void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerReco
   const double deg = std::numbers::pi / 180.0;
   const MavlinkPose p = lab_to_ned(m, settings_.yaw_offset_deg * deg, v.config.marker_yaw_deg * deg);
   const double att_var = std::pow(settings_.yaw_stddev_deg * deg, 2);
+  // A heading held from the cameras' last sight (a record of ranges alone) is not a measurement:
+  // its variance says "anywhere within half a turn", so the autopilot does not steer by it.
+  const double yaw_var = m.has_yaw ? att_var : kHeldYawVariance;
   const std::int64_t t_real_ns = update.capture_realtime_ns + std::int64_t{m.dt_us} * 1000;
   const std::uint64_t usec = t_real_ns > 0 ? static_cast<std::uint64_t>(t_real_ns / 1000) : 0;
   const auto sys = static_cast<std::uint8_t>(v.config.system_id);
@@ -153,7 +157,7 @@ void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerReco
     e.y = static_cast<float>(p.e);
     e.z = static_cast<float>(p.d);
     e.yaw = static_cast<float>(p.heading);  // roll, pitch 0: not observed (a flat marker)
-    e.covariance = pose_covariance(p, att_var);
+    e.covariance = pose_covariance(p, att_var, yaw_var);
     e.reset_counter = v.reset_counter;
     send(v, mavlink::frame(e, v.sequence++, sys, comp), update.capture_realtime_ns);
   }
@@ -177,7 +181,7 @@ void MavlinkSink::send_pose(Vehicle& v, const Datagram& update, const MarkerReco
     // The heading is clockwise, the lab's yaw counter-clockwise: FRD's yaw speed is -yaw_rate
     // (a level vehicle; roll and pitch rates are not observed).
     o.yawspeed = std::isnan(yaw_rate) ? kNaN : static_cast<float>(-yaw_rate);
-    o.pose_covariance = pose_covariance(p, att_var);
+    o.pose_covariance = pose_covariance(p, att_var, yaw_var);
     o.velocity_covariance[0] = kNaN;  // the record carries no velocity covariance
     o.reset_counter = v.reset_counter;
     send(v, mavlink::frame(o, v.sequence++, sys, comp), update.capture_realtime_ns);

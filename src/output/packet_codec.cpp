@@ -58,7 +58,10 @@ using codec_detail::valid_name;
 
 namespace {
 
-std::size_t record_size(bool velocity) { return velocity ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE; }
+std::size_t record_size(const Datagram& d) {
+  if (d.has_sources) return IPS_WIRE_RECORD_SIZE_SOURCES;
+  return d.has_velocity ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE;
+}
 
 Datagram decode_binary(std::span<const std::uint8_t> bytes) {
   ips_wire_header h{};
@@ -81,6 +84,7 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
   Datagram d;
   d.version = h.version;
   d.has_velocity = (h.flags & IPS_WIRE_FLAG_VELOCITY) != 0;
+  d.has_sources = (h.flags & IPS_WIRE_FLAG_SOURCES) != 0;
   d.sequence = h.sequence;
   d.update = h.update;
   d.part = h.part;
@@ -105,6 +109,8 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
     m.vx = finite_or_throw(w.vx, "vx");
     m.vy = finite_or_throw(w.vy, "vy");
     m.vz = finite_or_throw(w.vz, "vz");
+    m.sources = w.sources;
+    m.has_yaw = (w.marker_flags & IPS_WIRE_MARKER_HAS_YAW) != 0;
     d.markers.push_back(m);
   }
   d.bodies.reserve(h.body_count);
@@ -157,7 +163,7 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
   for (const BodyRecord& b : d.bodies)
     if (!valid_name(b.name))
       throw std::invalid_argument("encode_binary: body name '" + b.name + "' does not fit the wire");
-  const std::size_t rs = record_size(d.has_velocity);
+  const std::size_t rs = record_size(d);
   const std::size_t markers_end = IPS_WIRE_HEADER_SIZE + d.markers.size() * rs;
   std::vector<std::uint8_t> out(
       markers_end + (v2 ? IPS_WIRE_BODY_SECTION_SIZE + d.bodies.size() * IPS_WIRE_BODY_RECORD_SIZE : 0), 0);
@@ -168,7 +174,8 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
   p[2] = IPS_WIRE_MAGIC_2;
   p[3] = IPS_WIRE_MAGIC_3;
   ips_wire_put_u16(p + IPS_WIRE_OFF_VERSION, d.version);
-  ips_wire_put_u16(p + IPS_WIRE_OFF_FLAGS, d.has_velocity ? IPS_WIRE_FLAG_VELOCITY : 0);
+  ips_wire_put_u16(p + IPS_WIRE_OFF_FLAGS, static_cast<std::uint16_t>((d.has_velocity ? IPS_WIRE_FLAG_VELOCITY : 0u) |
+                                                                      (d.has_sources ? IPS_WIRE_FLAG_SOURCES : 0u)));
   ips_wire_put_u32(p + IPS_WIRE_OFF_SEQUENCE, d.sequence);
   ips_wire_put_u16(p + IPS_WIRE_OFF_MARKER_COUNT, static_cast<std::uint16_t>(d.markers.size()));
   ips_wire_put_u16(p + IPS_WIRE_OFF_RECORD_SIZE, static_cast<std::uint16_t>(rs));
@@ -194,6 +201,10 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
       ips_wire_put_f32(r + IPS_WIRE_REC_VX, static_cast<float>(m.vx));
       ips_wire_put_f32(r + IPS_WIRE_REC_VY, static_cast<float>(m.vy));
       ips_wire_put_f32(r + IPS_WIRE_REC_VZ, static_cast<float>(m.vz));
+    }
+    if (d.has_sources) {
+      ips_wire_put_u16(r + IPS_WIRE_REC_SOURCES, m.sources);
+      ips_wire_put_u16(r + IPS_WIRE_REC_MARKER_FLAGS, m.has_yaw ? IPS_WIRE_MARKER_HAS_YAW : 0u);
     }
   }
   if (v2) {
@@ -262,10 +273,10 @@ std::vector<Datagram> split_update(const Datagram& update, WireFormat format) {
   for (const MarkerRecord& m : update.markers) {
     std::size_t bytes;
     if (format == WireFormat::kBinary) {
-      bytes = record_size(update.has_velocity);
+      bytes = record_size(update);
     } else {
       std::string s;
-      append_marker_json(s, m, update.has_velocity);
+      append_marker_json(s, m, update.has_velocity, update.has_sources);
       bytes = s.size() + 1;  // the separating comma
     }
     if (used + bytes > budget && !current.markers.empty()) {

@@ -14,9 +14,18 @@
 #include "packet_codec_detail.h"
 
 namespace ips {
+
+const char* wire_source_name(unsigned bit) {
+  switch (bit) {
+    case 0: return "camera";
+    case 1: return "ranges";
+    default: return nullptr;  // a later source this build does not know
+  }
+}
+
 namespace codec_detail {
 
-void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity) {
+void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity, bool sources) {
   char buf[1024];
   int n = std::snprintf(buf, sizeof buf,
                         "{\"id\":%" PRIu32 ",\"cameras\":%" PRIu32
@@ -27,6 +36,19 @@ void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity) 
   if (velocity) {
     n = std::snprintf(buf, sizeof buf, ",\"vx\":%.4f,\"vy\":%.4f,\"vz\":%.4f", m.vx, m.vy, m.vz);
     out.append(buf, static_cast<std::size_t>(n));
+  }
+  if (sources) {
+    out += ",\"sources\":[";
+    bool first = true;
+    for (unsigned bit = 0; bit < 16; ++bit)
+      if (const char* name = wire_source_name(bit); name && (m.sources >> bit & 1u)) {
+        if (!first) out.push_back(',');
+        out += '"';
+        out += name;
+        out += '"';
+        first = false;
+      }
+    out += m.has_yaw ? "],\"has_yaw\":true" : "],\"has_yaw\":false";
   }
   out.push_back('}');
 }
@@ -103,6 +125,11 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
   auto vel = j.find("velocity");
   if (vel == j.end() || !vel->is_boolean()) malformed("field 'velocity' missing or not a boolean");
   d.has_velocity = vel->get<bool>();
+  // Optional (absent from the first senders): records name their sources.
+  if (auto src = j.find("sources"); src != j.end()) {
+    if (!src->is_boolean()) malformed("field 'sources' is not a boolean");
+    d.has_sources = src->get<bool>();
+  }
   d.sequence = get_integer<std::uint32_t>(j, "seq");
   d.update = get_integer<std::uint32_t>(j, "update");
   d.part = get_integer<std::uint8_t>(j, "part");
@@ -129,6 +156,20 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
       m.vx = get_number(mj, "vx");
       m.vy = get_number(mj, "vy");
       m.vz = get_number(mj, "vz");
+    }
+    if (d.has_sources) {
+      auto names = mj.find("sources");
+      if (names == mj.end() || !names->is_array()) malformed("field 'sources' missing or not an array");
+      m.sources = 0;
+      for (const auto& name : *names) {
+        if (!name.is_string()) malformed("a source is not a string");
+        for (unsigned bit = 0; bit < 16; ++bit)  // a later source's name is skipped
+          if (const char* known = wire_source_name(bit); known && name.get<std::string>() == known)
+            m.sources = static_cast<std::uint16_t>(m.sources | (1u << bit));
+      }
+      auto has_yaw = mj.find("has_yaw");
+      if (has_yaw == mj.end() || !has_yaw->is_boolean()) malformed("field 'has_yaw' missing or not a boolean");
+      m.has_yaw = has_yaw->get<bool>();
     }
     d.markers.push_back(m);
   }
@@ -192,14 +233,14 @@ std::string encode_json(const Datagram& d) {
       std::snprintf(buf, sizeof buf,
                     "{\"type\":\"ips.positions\",\"version\":%u,\"seq\":%" PRIu32 ",\"update\":%" PRIu32
                     ",\"part\":%u,\"parts\":%u,\"t_capture_real_ns\":%" PRId64 ",\"t_capture_mono_ns\":%" PRId64
-                    ",\"t_publish_real_ns\":%" PRId64 ",\"velocity\":%s,\"markers\":[",
+                    ",\"t_publish_real_ns\":%" PRId64 ",\"velocity\":%s%s,\"markers\":[",
                     static_cast<unsigned>(d.version), d.sequence, d.update, static_cast<unsigned>(d.part),
                     static_cast<unsigned>(d.parts), d.capture_realtime_ns, d.capture_monotonic_ns,
-                    d.publish_realtime_ns, d.has_velocity ? "true" : "false");
+                    d.publish_realtime_ns, d.has_velocity ? "true" : "false", d.has_sources ? ",\"sources\":true" : "");
   out.append(buf, static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < d.markers.size(); ++i) {
     if (i) out.push_back(',');
-    codec_detail::append_marker_json(out, d.markers[i], d.has_velocity);
+    codec_detail::append_marker_json(out, d.markers[i], d.has_velocity, d.has_sources);
   }
   out.push_back(']');
   if (d.version == IPS_WIRE_VERSION_2) {

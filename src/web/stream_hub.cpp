@@ -131,6 +131,11 @@ Message StreamHub::markers_message(std::int64_t now) const {
                      {"t_mono_ns", e.t_mono_ns},
                      {"age", age(e.t_mono_ns)}};
     if (e.has_velocity) o.update({{"vx", m.vx}, {"vy", m.vy}});  // absent: not measured (as for bodies)
+    // What placed it (cameras, ranges) and whether the heading was measured or is held.
+    auto& sources = o["sources"] = nlohmann::json::array();
+    for (unsigned bit = 0; bit < 16; ++bit)
+      if (const char* name = wire_source_name(bit); name && (m.sources >> bit & 1u)) sources.push_back(name);
+    o["has_yaw"] = m.has_yaw;
     list.push_back(std::move(o));
   }
   // Bodies (docs/bodies.md): a position-only body (has_yaw false) has no meaningful yaw or q.

@@ -21,6 +21,7 @@
 #include "ips/core/clock.h"
 #include "ips/input/range_datagram.h"
 #include "ips/output/packet_codec.h"
+#include "ips/output/wire.h"
 #include "ips/sim/scene.h"
 #include "plane_model.h"
 #include "process_util.h"
@@ -68,6 +69,9 @@ struct Published {
   double t;  // the record's time, s after the beacon's start (realtime)
   Eigen::Vector3d p;
   std::uint32_t camera_mask;
+  bool has_sources;  // the datagram's IPS_WIRE_FLAG_SOURCES
+  std::uint16_t sources;
+  bool has_yaw;
 };
 
 /// The beacon's records in ipsd's stream, read on a thread of its own beside the sender.
@@ -82,7 +86,8 @@ class TagRecords {
             for (const auto& m : d.markers)
               if (m.id == static_cast<std::uint32_t>(kTagMarker))
                 published_.push_back({1e-9 * static_cast<double>(d.capture_realtime_ns + 1000LL * m.dt_us - t0_real),
-                                      Eigen::Vector3d(m.x, m.y, m.z), m.camera_mask});
+                                      Eigen::Vector3d(m.x, m.y, m.z), m.camera_mask, d.has_sources, m.sources,
+                                      m.has_yaw});
           }
         }) {}
   ~TagRecords() { (void)stop(); }
@@ -207,6 +212,10 @@ TEST_F(IpsdRangingTest, ABeaconThroughAFaultyTransportIsPublishedFromItsOwnFirin
   for (std::size_t i = 0; i < published.size(); ++i) {
     const Published& p = published[i];
     EXPECT_EQ(p.camera_mask, 0u) << "no camera sees the beacon";
+    // The stream says so: ranges alone, the heading not measured.
+    EXPECT_TRUE(p.has_sources) << "record " << i;
+    EXPECT_EQ(p.sources, IPS_WIRE_SOURCE_RANGES) << "record " << i;
+    EXPECT_FALSE(p.has_yaw) << "record " << i;
     if (i > 0) {
       EXPECT_GE(p.t, published[i - 1].t) << "record " << i << " went back in time";
     }

@@ -14,6 +14,7 @@
 #include "ips/output/mavlink_frame.h"
 #include "ips/output/mavlink_pose.h"
 #include "ips/output/output_sink.h"
+#include "ips/output/wire.h"
 #include "loopback_udp.h"
 #include "mavlink_decoder.h"
 
@@ -82,6 +83,10 @@ TEST(MavlinkSink, NodeMavlinkDecodesEveryFieldAsSent) {
   d.capture_realtime_ns = 1'700'000'000'123'456'789LL;
   d.capture_monotonic_ns = 5'000'000'000LL;
   d.markers = {marker(3, 1.25, 2.5, 0.75, 0.4), marker(4, 9, 9, 9, 0), marker(5, -0.5, 1.0, 1.5, -2.0)};
+  d.has_sources = true;
+  d.markers[2].sources = IPS_WIRE_SOURCE_RANGES;  // vehicle 9: ranges alone, its heading held
+  d.markers[2].camera_mask = 0;
+  d.markers[2].has_yaw = false;
   sink->publish(d);
   const auto frames = drain(rx);
   // Per vehicle: HEARTBEAT, VISION_POSITION_ESTIMATE, ODOMETRY (marker 4 is no vehicle).
@@ -119,6 +124,7 @@ TEST(MavlinkSink, NodeMavlinkDecodesEveryFieldAsSent) {
     const MarkerRecord& m = d.markers[sys == 7 ? 0 : 2];
     const MavlinkPose want = lab_to_ned(m, 30 * kDeg, (sys == 7 ? 0.0 : 90.0) * kDeg);
     const double att_var = std::pow(4 * kDeg, 2);
+    const double yaw_var = m.has_yaw ? att_var : kHeldYawVariance;
     const auto& f = p["fields"];
     auto fl = [&](const nlohmann::json& v) { return test::json_float(v); };
     auto expect_pose_covariance = [&](const nlohmann::json& c) {
@@ -143,7 +149,7 @@ TEST(MavlinkSink, NodeMavlinkDecodesEveryFieldAsSent) {
                                    0,
                                    att_var,
                                    0,
-                                   att_var};
+                                   yaw_var};
       for (int k = 0; k < 21; ++k)
         EXPECT_FLOAT_EQ(fl(c[k]), static_cast<float>(expected[k])) << "covariance[" << k << "]";
     };

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ips/output/packet_codec.h"
+#include "ips/output/wire.h"
 
 namespace ips {
 namespace {
@@ -69,6 +70,30 @@ TEST(PythonClient, DecodesTheBinaryFormLikeTheCppDecoder) {
   EXPECT_DOUBLE_EQ(j["markers"][0]["y"].get<double>(), -0.25);
   EXPECT_EQ(j["markers"][0]["dt_us"], -1234);
   EXPECT_DOUBLE_EQ(j["markers"][0]["vx"].get<double>(), 0.75);
+}
+
+TEST(PythonClient, ReadsWhatPlacedEachMarkerLikeTheJsonForm) {
+  if (std::system("python3 -c 'import struct' >/dev/null 2>&1") != 0) GTEST_SKIP() << "no python3";
+  Datagram d;
+  d.has_sources = true;
+  MarkerRecord both, ranged;
+  both.id = 3;
+  both.camera_mask = 1;
+  both.sources = IPS_WIRE_SOURCE_CAMERA | IPS_WIRE_SOURCE_RANGES;
+  ranged.id = 20;
+  ranged.sources = IPS_WIRE_SOURCE_RANGES;
+  ranged.has_yaw = false;
+  d.markers = {both, ranged};
+  const auto j = nlohmann::json::parse(python_decode(encode_binary(d)));
+  const auto json_form = nlohmann::json::parse(encode_json(d));
+  EXPECT_EQ(j["sources"], true);
+  ASSERT_EQ(j["markers"].size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(j["markers"][i]["sources"], json_form["markers"][i]["sources"]) << i;
+    EXPECT_EQ(j["markers"][i]["has_yaw"], json_form["markers"][i]["has_yaw"]) << i;
+  }
+  EXPECT_EQ(j["markers"][1]["sources"], nlohmann::json::array({"ranges"}));
+  EXPECT_EQ(j["markers"][1]["has_yaw"], false);
 }
 
 TEST(PythonClient, DecodesVersion2Bodies) {

@@ -46,6 +46,8 @@ Datagram update(bool velocity) {
   a.yaw = M_PI / 2;
   a.dt_us = -250;
   a.vx = 1.0, a.vy = 0.0, a.vz = 0.5;
+  a.covariance = {1e-4, 2e-5, 3e-6, 4e-4, 5e-6, 9e-4};
+  a.has_yaw = false;  // held (ranges alone): the odometry's yaw variance says so
   MarkerRecord b;
   b.id = 9;
   b.x = 3.0, b.y = 4.0, b.z = 0.0;
@@ -142,6 +144,13 @@ TEST_F(Ros2SinkTest, SubscriberReceivesPoseOdometryAndTfWithTheRightValues) {
   EXPECT_NEAR(od.twist.twist.linear.y, -1.0, 1e-12);
   EXPECT_NEAR(od.twist.twist.linear.z, 0.5, 1e-12);
   EXPECT_DOUBLE_EQ(od.twist.twist.angular.z, 0.0);  // not estimated
+  // Pose covariance, row-major over (x y z, rot x y z): the record's position block written
+  // out by hand, the held heading's pi^2 on rot z, the rest 0.
+  double want[36] = {};
+  want[0] = 1e-4, want[1] = want[6] = 2e-5, want[2] = want[12] = 3e-6;
+  want[7] = 4e-4, want[8] = want[13] = 5e-6, want[14] = 9e-4;
+  want[35] = M_PI * M_PI;
+  for (int k = 0; k < 36; ++k) EXPECT_DOUBLE_EQ(od.pose.covariance[k], want[k]) << "covariance[" << k << "]";
   const auto s = sink.stats();
   EXPECT_EQ(s.description, "ros2 domain 61 /lab/ipsd");
   EXPECT_GT(s.datagrams, 0u);

@@ -288,6 +288,8 @@ TEST_F(WebServerTest, StreamsRateLimitedUpdatesWithBoundedQueuesAndSurvivesAbrup
     if (j["markers"].size() != 1u) continue;
     EXPECT_EQ(j["markers"][0]["id"], 5);
     EXPECT_EQ(j["markers"][0]["cameras"], 3);
+    EXPECT_EQ(j["markers"][0]["sources"], nlohmann::json::array({"camera"}));
+    EXPECT_EQ(j["markers"][0]["has_yaw"], true);
     EXPECT_GE(j["markers"][0]["x"].get<double>(), last_x);  // the newest state, in order
     last_x = j["markers"][0]["x"];
     ++markers;

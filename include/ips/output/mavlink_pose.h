@@ -4,9 +4,15 @@
 // z down; heading clockwise from x. The lab's x axis points at heading `yaw_offset` in it.
 #pragma once
 
+#include <numbers>
+
 #include "ips/output/packet_codec.h"
 
 namespace ips {
+
+/// The yaw variance (rad^2) sent for a record whose heading is held, not measured (ranges
+/// alone, MarkerRecord::has_yaw false): pi^2, "anywhere within half a turn".
+constexpr double kHeldYawVariance = std::numbers::pi * std::numbers::pi;
 
 struct MavlinkPose {
   double n = 0, e = 0, d = 0;     ///< position in the local NED/FRD frame, metres

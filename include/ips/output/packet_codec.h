@@ -26,6 +26,10 @@ struct MarkerRecord {
   double spread = 0;              ///< max distance of a camera's estimate from the fused one, m
   std::int32_t dt_us = 0;         ///< marker capture time - header capture time, microseconds
   double vx = 0, vy = 0, vz = 0;  ///< velocity, m/s (only meaningful if the datagram has_velocity)
+  /// What the position came from: IPS_WIRE_SOURCE_* bits (the fusion's source_bit()). On the
+  /// wire only when the datagram has_sources; a datagram without them decodes as cameras.
+  std::uint16_t sources = 1;
+  bool has_yaw = true;  ///< yaw measured at this time (false: the last heading held)
   /// Position covariance (the fusion's), m^2, upper triangle xx xy xz yy yz zz; all 0 = unknown.
   /// Not on the v1 wire (binary or JSON): for outputs that carry it (MAVLink, ROS 2).
   std::array<double, 6> covariance{};
@@ -55,6 +59,8 @@ struct BodyRecord {
 struct Datagram {
   std::uint16_t version = 1;
   bool has_velocity = false;
+  /// Records carry sources and has_yaw (IPS_WIRE_FLAG_SOURCES; ipsd: when `ranging:` is on).
+  bool has_sources = false;
   std::uint32_t sequence = 0;  ///< per-output datagram counter
   std::uint32_t update = 0;    ///< fused-update counter
   std::uint8_t part = 0;
@@ -69,6 +75,10 @@ struct Datagram {
 /// True when `name` can be a body's name on the wire: 1..IPS_WIRE_BODY_NAME_SIZE - 1 bytes of
 /// UTF-8 without NUL (the config reader checks bodies[].name with it).
 bool valid_body_name(const std::string& name);
+
+/// The name of IPS_WIRE_SOURCE_* bit `bit` in the JSON form and the web view ("camera",
+/// "ranges"); nullptr for a bit this build does not know.
+const char* wire_source_name(unsigned bit);
 
 /// The message a receiver gives for a datagram of a protocol version it does not read.
 std::string unsupported_version_message(unsigned version);

@@ -20,11 +20,13 @@
  *   off size type  field
  *     0    4 u8[4] magic: the ASCII bytes 'I' 'P' 'S' 'D'
  *     4    2 u16   version: protocol version, 1 or 2
- *     6    2 u16   flags: bit 0 = records carry velocity (IPS_WIRE_FLAG_VELOCITY); other bits 0
+ *     6    2 u16   flags: bit 0 = records carry velocity (IPS_WIRE_FLAG_VELOCITY); bit 1 =
+ *                  records carry their sources (IPS_WIRE_FLAG_SOURCES); other bits 0, and a
+ *                  receiver ignores bits it does not know
  *     8    4 u32   sequence: datagram counter of this output, +1 per datagram (wraps at 2^32);
  *                  a gap means a lost datagram
  *    12    2 u16   marker_count: records in this datagram
- *    14    2 u16   record_size: bytes per record (36, or 48 with velocity)
+ *    14    2 u16   record_size: bytes per record (36; 48 with velocity; 52 with sources)
  *    16    1 u8    part: index of this datagram within its update, 0-based
  *    17    1 u8    parts: datagrams the update was split into (>= 1)
  *    18    2 u16   reserved, 0
@@ -53,6 +55,20 @@
  *    36    4 f32   vx, m/s (constant-velocity Kalman filter)
  *    40    4 f32   vy, m/s
  *    44    4 f32   vz, m/s
+ *   with IPS_WIRE_FLAG_SOURCES (ipsd sets it when its configuration has `ranging:`; the record
+ *   then always holds the velocity fields, 0 without IPS_WIRE_FLAG_VELOCITY):
+ *    48    2 u16   sources: what the position came from, a bit per kind: bit 0 =
+ *                  IPS_WIRE_SOURCE_CAMERA (the cameras of camera_mask), bit 1 =
+ *                  IPS_WIRE_SOURCE_RANGES (UWB / ultrasound ranges, docs/ranging.md); a record of
+ *                  ranges alone has camera_mask 0 and quality 0. Later sources take later bits.
+ *    50    2 u16   marker_flags: bit 0 = IPS_WIRE_MARKER_HAS_YAW (yaw was measured at this
+ *                  record's time; 0 = the last measured heading held, e.g. from ranges alone)
+ *   Without IPS_WIRE_FLAG_SOURCES every record is from the cameras with a measured yaw
+ *   (ips_wire_read_marker fills sources and marker_flags so).
+ *
+ * Minor revisions: a sender adds fields only at the end of a record, announced by a new flag
+ * bit, and keeps every earlier field where it was; a receiver that steps by record_size and
+ * ignores flag bits it does not know reads every revision.
  *
  * Version 2 only: the body section, right after the marker records (at byte
  * B = 48 + marker_count * record_size). A marker that belongs to a body is published inside
@@ -115,9 +131,15 @@ extern "C" {
 #define IPS_WIRE_VERSION 1u   /* without bodies */
 #define IPS_WIRE_VERSION_2 2u /* with the body section */
 #define IPS_WIRE_FLAG_VELOCITY 0x0001u
+#define IPS_WIRE_FLAG_SOURCES 0x0002u
 #define IPS_WIRE_HEADER_SIZE 48u
 #define IPS_WIRE_RECORD_SIZE 36u          /* without velocity */
 #define IPS_WIRE_RECORD_SIZE_VELOCITY 48u /* with velocity */
+#define IPS_WIRE_RECORD_SIZE_SOURCES 52u  /* with sources (velocity fields always present) */
+/* Marker record: sources bits and marker_flags bits. */
+#define IPS_WIRE_SOURCE_CAMERA 0x0001u
+#define IPS_WIRE_SOURCE_RANGES 0x0002u
+#define IPS_WIRE_MARKER_HAS_YAW 0x0001u
 /* Every datagram (binary or JSON) is at most this many bytes, below common path MTUs. */
 #define IPS_WIRE_MAX_DATAGRAM 1199u
 
@@ -149,6 +171,8 @@ extern "C" {
 #define IPS_WIRE_REC_VX 36u
 #define IPS_WIRE_REC_VY 40u
 #define IPS_WIRE_REC_VZ 44u
+#define IPS_WIRE_REC_SOURCES 48u
+#define IPS_WIRE_REC_MARKER_FLAGS 50u
 
 /* Version 2: the body section and its records. */
 #define IPS_WIRE_BODY_SECTION_SIZE 4u
@@ -266,7 +290,9 @@ struct ips_wire_marker {
   float quality;
   float spread;
   int32_t dt_us;
-  float vx, vy, vz; /* 0 unless the header has IPS_WIRE_FLAG_VELOCITY */
+  float vx, vy, vz;      /* 0 unless the header has IPS_WIRE_FLAG_VELOCITY */
+  uint16_t sources;      /* IPS_WIRE_SOURCE_* bits (CAMERA without IPS_WIRE_FLAG_SOURCES) */
+  uint16_t marker_flags; /* IPS_WIRE_MARKER_HAS_YAW (set without IPS_WIRE_FLAG_SOURCES) */
 };
 
 enum ips_wire_status {
@@ -319,7 +345,9 @@ static inline int ips_wire_read_header(const uint8_t* buf, size_t len, struct ip
   h->capture_realtime_ns = ips_wire_get_i64(buf + IPS_WIRE_OFF_CAPTURE_REALTIME);
   h->capture_monotonic_ns = ips_wire_get_i64(buf + IPS_WIRE_OFF_CAPTURE_MONOTONIC);
   h->publish_realtime_ns = ips_wire_get_i64(buf + IPS_WIRE_OFF_PUBLISH_REALTIME);
-  min_record = (h->flags & IPS_WIRE_FLAG_VELOCITY) ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE;
+  min_record = (h->flags & IPS_WIRE_FLAG_SOURCES)    ? IPS_WIRE_RECORD_SIZE_SOURCES
+               : (h->flags & IPS_WIRE_FLAG_VELOCITY) ? IPS_WIRE_RECORD_SIZE_VELOCITY
+                                                     : IPS_WIRE_RECORD_SIZE;
   if (h->record_size < min_record) return IPS_WIRE_BAD_RECORD_SIZE;
   {
     const uint64_t markers_end = (uint64_t)IPS_WIRE_HEADER_SIZE + (uint64_t)h->marker_count * h->record_size;
@@ -357,6 +385,13 @@ static inline void ips_wire_read_marker(const uint8_t* buf, const struct ips_wir
     m->vz = ips_wire_get_f32(r + IPS_WIRE_REC_VZ);
   } else {
     m->vx = m->vy = m->vz = 0.0f;
+  }
+  if (h->flags & IPS_WIRE_FLAG_SOURCES) {
+    m->sources = ips_wire_get_u16(r + IPS_WIRE_REC_SOURCES);
+    m->marker_flags = ips_wire_get_u16(r + IPS_WIRE_REC_MARKER_FLAGS);
+  } else {
+    m->sources = IPS_WIRE_SOURCE_CAMERA;
+    m->marker_flags = IPS_WIRE_MARKER_HAS_YAW;
   }
 }
 

@@ -4,7 +4,7 @@
 // Events) and /camera/<name>.jpg|json. Plain JS, no framework, nothing from the internet;
 // bodies are drawn by bodies.js. Every marker element carries its world position and id as
 // data attributes (data-id, data-x, data-y, data-z, data-yaw, data-speed, data-cameras,
-// data-age) so that the tests read back what is drawn.
+// data-sources, data-has-yaw, data-age) so that the tests read back what is drawn.
 // ?updates=N: stop the stream after N marker updates and the camera view after 2 images
 // (a still page that ends its connections: for screenshots, monitoring and the browser test).
 // ?rejected=1: the "show rejected candidates" box ticked at start. ?camera=NAME: that camera.
@@ -228,12 +228,17 @@ function drawMarkers(msg) {
     g.querySelector('line').setAttribute('transform', `rotate(${yawDeg.toFixed(2)})`);
     const cams = cameraNames(m.cameras);
     const speed = m.vx === null || m.vx === undefined || m.vy === null ? null : Math.hypot(m.vx, m.vy);
+    // What placed it: ranges alone (no camera sees it) draw dashed; the heading is then held.
+    const sources = m.sources || ['camera'];
     Object.assign(g.dataset, { x: m.x, y: m.y, z: m.z, yaw: m.yaw, speed: speed === null ? '' : speed, age: m.age,
-                               cameras: cams.join(',') });
+                               cameras: cams.join(','), sources: sources.join(','),
+                               hasYaw: m.has_yaw === false ? 'false' : 'true' });
     g.classList.toggle('stale', m.age > STALE_S);
+    g.classList.toggle('ranged', !sources.includes('camera'));
     const name = state.layout.markers[id];
     g.querySelector('text.label').textContent = name ? `${id} ${name}` : id;
-    g.querySelector('text.sub').textContent = `${cams.join(' ') || '–'} · ${fmt(m.age, 1)} s`;
+    g.querySelector('text.sub').textContent =
+      `${cams.join(' ') || '–'}${sources.includes('ranges') ? ' +ranges' : ''} · ${fmt(m.age, 1)} s`;
     const trail = state.trails.get(id) || [];
     const last = trail[trail.length - 1];
     if (!last || Math.hypot(last[0] - m.x, last[1] - m.y) > 0.005) trail.push([m.x, m.y]);
@@ -241,7 +246,7 @@ function drawMarkers(msg) {
     state.trails.set(id, trail);
     trails.querySelector(`polyline[data-id="${id}"]`)
       .setAttribute('points', trail.map(([x, y]) => `${x.toFixed(3)},${(-y).toFixed(3)}`).join(' '));
-    drawMarkerRow(m, name, cams, speed);
+    drawMarkerRow(m, name, cams, speed, sources);
   }
   for (const g of [...layer.querySelectorAll('g.marker')]) {
     if (seen.has(g.dataset.id)) continue;
@@ -257,7 +262,7 @@ function drawMarkers(msg) {
 
 // The Markers table: one row per marker on the stream, sorted by id. Cells carry data-field
 // (marker_*) and the unrounded value in data-value, as the Bodies and Health tables do.
-function drawMarkerRow(m, name, cams, speed) {
+function drawMarkerRow(m, name, cams, speed, sources) {
   const body = $('markers-table').querySelector('tbody');
   const id = String(m.id);
   let tr = body.querySelector(`tr[data-marker="${id}"]`);
@@ -274,9 +279,11 @@ function drawMarkerRow(m, name, cams, speed) {
   cell(tr, 'marker_x', m.x, fmt(m.x, 3), true);
   cell(tr, 'marker_y', m.y, fmt(m.y, 3), true);
   cell(tr, 'marker_z', m.z, fmt(m.z, 3), true);
-  cell(tr, 'marker_yaw_deg', m.yaw * 180 / Math.PI, fmt(m.yaw * 180 / Math.PI, 1), true);
+  const held = m.has_yaw === false ? ' held' : '';
+  cell(tr, 'marker_yaw_deg', m.yaw * 180 / Math.PI, fmt(m.yaw * 180 / Math.PI, 1) + held, true);
   cell(tr, 'marker_speed', speed, fmt(speed, 2), true);
   cell(tr, 'marker_cameras', cams.join(','), cams.join(' ') || '–');
+  cell(tr, 'marker_sources', sources.join(','), sources.join(' + '));
   cell(tr, 'marker_age', m.age, fmt(m.age, 1), true);
 }
 
