@@ -27,6 +27,10 @@ FusionConfig parse_fusion(const YAML::Node& n, const std::string& file) {
     f.fail(f.raw()["output_rate"], "fusion.output_rate", "must be <= 1000 Hz (0 = one update per camera frame)");
   f.get_number("max_wait", c.max_wait_s, 0.0, true);
   f.get_number("fixed_marker_warn", c.fixed_marker_warn_m, 0.0, true);
+  // With another source than the cameras (ranging:): the cameras' weight against it, and the
+  // filter that carries an object through where no camera sees it.
+  f.get_number("camera_sigma", c.camera_sigma_m, 0.0, true);
+  f.get_number("out_of_view_process_noise", c.between_cameras_process_noise, 0.0, true);
   if (f.has("kalman")) {
     MapReader k(f.node("kalman"), "fusion.kalman", file);
     k.get("enabled", c.kalman);

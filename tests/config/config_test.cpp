@@ -167,6 +167,8 @@ fusion:
   history: 0.5
   single_camera_depth: true
   output_rate: 100
+  camera_sigma: 0.004
+  out_of_view_process_noise: 0.5
   kalman: {enabled: true, process_noise: 2.0, measurement_noise: 0.0004, reset_after: 1.0}
 outputs:
   - {type: multicast, address: 239.1.2.3, port: 5005, format: json, ttl: 2, interface: 10.0.0.5}
@@ -204,6 +206,8 @@ watchdog: {stall_timeout: 3}
   EXPECT_DOUBLE_EQ(c.fusion.history_s, 0.5);
   EXPECT_TRUE(c.fusion.single_camera_depth);
   EXPECT_DOUBLE_EQ(c.fusion.output_rate_hz, 100.0);
+  EXPECT_DOUBLE_EQ(c.fusion.camera_sigma_m, 0.004);
+  EXPECT_DOUBLE_EQ(c.fusion.between_cameras_process_noise, 0.5);
   ASSERT_EQ(c.outputs.size(), 2u);
   EXPECT_EQ(c.outputs[0].kind, OutputConfig::Kind::kMulticast);
   EXPECT_EQ(c.outputs[0].format, WireFormat::kJson);
@@ -238,6 +242,8 @@ TEST_F(ConfigTest, EveryMalformedCaseNamesTheKeyAndThePlace) {
   expect_error(m + "fusion: {method: average}\n", {"fusion.method: unknown method 'average' (mean|area|gauss|median)"});
   expect_error(m + "fusion: {window: soon}\n", {"fusion.window: expected a number, got 'soon'"});
   expect_error(m + "fusion: {max_wait: -1}\n", {"fusion.max_wait: must be > 0"});
+  expect_error(m + "fusion: {camera_sigma: 0}\n", {"fusion.camera_sigma: must be > 0"});
+  expect_error(m + "fusion: {out_of_view_process_noise: -0.1}\n", {"fusion.out_of_view_process_noise: must be > 0"});
   expect_error(m + "fusion: {window: 0.3}\n", {"fusion.history: must be >= fusion.window"});
   expect_error(m + "fusion: {output_rate: 5000}\n", {"fusion.output_rate: must be <= 1000 Hz"});
   expect_error(std::string(kMinimal).replace(m.find("    intrinsics"), 0, "    timestamp_offset: 2\n"),

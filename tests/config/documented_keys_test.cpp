@@ -93,6 +93,8 @@ fusion:
   single_camera_depth: false
   output_rate: 0
   fixed_marker_warn: 0.03
+  camera_sigma: 0.002
+  out_of_view_process_noise: 0.1
   max_wait: 0.05
   kalman: {enabled: true, process_noise: 0.5, measurement_noise: 0.0001, reset_after: 0.5, initial_velocity_std: 1.0}
 outputs:

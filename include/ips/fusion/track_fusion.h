@@ -42,11 +42,12 @@ struct TrackFusionOptions : FusionTimeWindows {
   /// its own covariance (ranges): the daemon's measured accuracy is mm-level, so a 5 cm range
   /// fix moves a camera-seen position by ~0.1 mm and fills in where no camera sees it. Where
   /// no camera sees an object, a constant-velocity filter smooths the other sources'
-  /// estimates, started from the cameras' last state.
+  /// estimates, started from the cameras' last state. Config: fusion.camera_sigma.
   double camera_sigma_m = 0.002;
   /// That filter's white-noise acceleration, m^2/s^3. 0.1 halves a 5 cm range fix's p95 for
   /// a robot at 0.2 m/s (tests/fusion/track_fusion_sources_test.cpp: 125 -> 75 mm); lower
   /// smooths more but claims more certainty than a turning robot allows at the hand-back.
+  /// Config: fusion.out_of_view_process_noise.
   double between_cameras_process_noise = 0.1;
   bool kalman = false;  ///< constant-velocity Kalman filter per object on the output
   KalmanOptions kalman_options;
