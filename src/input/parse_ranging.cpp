@@ -72,6 +72,18 @@ RangingConfig parse_ranging(const YAML::Node& node, const std::string& file) {
     c.z_range = std::make_pair(lo, hi);
   }
   r.get_number("sigma", c.sigma_m, 0.0, true);
+  if (r.has("ultrasound")) {
+    MapReader u(r.node("ultrasound"), "ranging.ultrasound", file);
+    double t = 20.0;
+    u.get("temperature", t, /*required=*/true);
+    if (t < -40 || t > 60)
+      u.fail(u.raw()["temperature"], "ranging.ultrasound.temperature", "must be in [-40, 60] degC");
+    c.temperature_c = t;
+    u.get_number("assumed_speed", c.assumed_speed_of_sound, 0.0, true);
+    if (c.assumed_speed_of_sound < 300 || c.assumed_speed_of_sound > 400)
+      u.fail(u.raw()["assumed_speed"], "ranging.ultrasound.assumed_speed", "must be in [300, 400] m/s");
+    u.finish();
+  }
 
   read_list(r, "anchors", "anchors ({id, x, y, z})", [&](const YAML::Node& n, const std::string& where) {
     MapReader a(n, where, file);

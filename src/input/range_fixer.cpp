@@ -6,6 +6,7 @@
 
 #include "ips/ranging/multilateration.h"
 #include "ips/ranging/range_observation.h"
+#include "ips/ranging/speed_of_sound.h"
 
 namespace ips {
 
@@ -18,6 +19,8 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
   }
   std::vector<RangeToAnchor> ranges;
   ranges.reserve(f.entries.size());
+  const double air =
+      config_.temperature_c ? ultrasound_range_scale(*config_.temperature_c, config_.assumed_speed_of_sound) : 1.0;
   for (const RangeEntry& e : f.entries) {
     if (e.reference_is_tag) {
       const auto other = config_.tag_markers.find(e.reference);
@@ -33,7 +36,7 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
       const double moved = 0.5 * 1.0 * dt * dt;  // an unknown acceleration of up to 1 m/s^2
       const double reference_variance = state->covariance.trace() / 3.0 + moved * moved;
       ranges.push_back(
-          {state->position + dt * state->velocity, e.range_m, std::sqrt(sigma * sigma + reference_variance)});
+          {state->position + dt * state->velocity, air * e.range_m, std::sqrt(sigma * sigma + reference_variance)});
       ++counters_.mobile_references;
       continue;
     }
@@ -41,7 +44,7 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
     if (a == config_.anchors.end()) continue;  // admission drops these (counted there)
     const RangingAnchor& anchor = a->second;
     const double sigma = e.sigma_m > 0 ? e.sigma_m : anchor.sigma_m > 0 ? anchor.sigma_m : config_.sigma_m;
-    ranges.push_back({anchor.position, (e.range_m - anchor.bias_m) / anchor.scale, sigma});
+    ranges.push_back({anchor.position, (air * e.range_m - anchor.bias_m) / anchor.scale, sigma});
   }
   RangeSolveOptions options;
   options.known_height = config_.height;

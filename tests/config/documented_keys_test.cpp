@@ -127,6 +127,7 @@ ranging:
   method: robust
   height: 0.1
   sigma: 0.05
+  ultrasound: {temperature: 21.5, assumed_speed: 343}
   anchors:
     - {id: 1, x: 0, y: 0, z: 2.5, bias: 0.02, scale: 1.0, sigma: 0.04}
     - {id: 2, x: 4, y: 0, z: 2.5}

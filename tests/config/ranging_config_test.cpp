@@ -32,6 +32,10 @@ TEST_F(RangingConfig, OffWithoutTheSectionAndItsDefaultsWithIt) {
   // The input admits exactly the configured tags and anchors.
   EXPECT_EQ(c.input.tags, (std::set<std::uint32_t>{7}));
   EXPECT_EQ(c.input.anchors, (std::set<std::uint32_t>{1, 2, 3}));
+  EXPECT_FALSE(c.temperature_c.has_value()) << "ranges are used as sent unless ultrasound: says otherwise";
+  const auto u = parse_text(with("  ultrasound: {temperature: 28.5}\n")).ranging;
+  EXPECT_DOUBLE_EQ(u.temperature_c.value(), 28.5);
+  EXPECT_DOUBLE_EQ(u.assumed_speed_of_sound, 343.0);
 }
 
 TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
@@ -50,6 +54,10 @@ TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
   expect_refused(with("", kThree, "[{id: 7, marker: 9}]") + "markers: {ids: {9: {fixed: [1, 2, 0]}}}\n",
                  {"ranging.tags", "fixed marker"});
   expect_refused(with("  prot: 5801\n"), {"ranging.prot", "unknown key"});
+  expect_refused(with("  ultrasound: {assumed_speed: 340}\n"), {"ranging.ultrasound.temperature", "required"});
+  expect_refused(with("  ultrasound: {temperature: 95}\n"), {"ranging.ultrasound.temperature", "[-40, 60]"});
+  expect_refused(with("  ultrasound: {temperature: 20, assumed_speed: 34.3}\n"),
+                 {"ranging.ultrasound.assumed_speed", "[300, 400]"});
   expect_refused(test::kSyntheticRedConfig + "ranging: {anchors: " + kThree + ", tags: [{id: 7, marker: 20}]}\n",
                  {"ranging.port", "required"});
 }

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "ips/ranging/speed_of_sound.h"
+
 namespace ips {
 namespace {
 
@@ -63,6 +65,26 @@ TEST(RangeFixer, AnAnchorsBiasAndScaleAreUndoneBeforeSolving) {
   const auto right = corrected.fix(f, 0);
   ASSERT_TRUE(right.has_value());
   EXPECT_LT((right->p_world - tag).norm(), 1e-6);
+}
+
+TEST(RangeFixer, UltrasoundRangesAreCorrectedForTheAirsTemperature) {
+  // The published values: 331.3 m/s at 0 degC, 343.2 m/s at 20 degC (dry air).
+  EXPECT_DOUBLE_EQ(speed_of_sound(0.0), 331.3);
+  EXPECT_NEAR(speed_of_sound(20.0), 343.2, 0.05);
+  // A module assuming 343 m/s in a 35 degC lab: its ranges are ToF * 343, the truth ToF * c(35).
+  RangingConfig c = lab();
+  const Eigen::Vector3d tag(1.0, 2.0, 0.3);
+  AdmittedFiring f = firing_at(c, tag);
+  const double c35 = 331.3 * std::sqrt(1.0 + 35.0 / 273.15);  // written out, not the library's
+  for (auto& e : f.firing.entries) e.range_m *= 343.0 / c35;
+  const auto uncorrected = RangeFixer(c).fix(f, 0);
+  ASSERT_TRUE(uncorrected.has_value());
+  EXPECT_GT((uncorrected->p_world - tag).norm(), 0.02) << "1.7 % short ranges move the fix by centimetres";
+  c.temperature_c = 35.0;
+  c.assumed_speed_of_sound = 343.0;
+  const auto corrected = RangeFixer(c).fix(f, 0);
+  ASSERT_TRUE(corrected.has_value());
+  EXPECT_LT((corrected->p_world - tag).norm(), 1e-6);
 }
 
 TEST(RangeFixer, TooFewAnchorsAreCountedByTheirWordAndAKnownHeightNeedsOneLess) {

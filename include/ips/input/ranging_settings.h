@@ -36,6 +36,11 @@ struct RangingConfig {
   std::optional<double> height;                      ///< the tags' known height (robots on a floor), m
   std::optional<std::pair<double, double>> z_range;  ///< otherwise, the heights they can be at
   double sigma_m = 0.05;                             ///< a range's 1-sigma when neither firing nor anchor says
+  /// Ultrasound (ranging.ultrasound): every range is first multiplied by
+  /// speed_of_sound(temperature) / assumed_speed (ips/ranging/speed_of_sound.h), then the
+  /// anchor's bias and scale are undone. Absent: ranges are used as sent (UWB: radio).
+  std::optional<double> temperature_c;
+  double assumed_speed_of_sound = 343.0;  ///< m/s the senders' modules convert time of flight with
 
   bool enabled() const { return input.port != 0; }
   bool operator==(const RangingConfig&) const = default;
