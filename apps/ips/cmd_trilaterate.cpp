@@ -11,6 +11,7 @@
 #include "ips/core/error.h"
 #include "ips/ranging/multilateration.h"
 #include "ips/ranging/ranges_file.h"
+#include "ips/ranging/speed_of_sound.h"
 
 namespace cmd_trilaterate {  // named, not anonymous: unique in a unity build
 
@@ -18,6 +19,8 @@ struct Options {
   std::string anchors, ranges, out, method = "robust";
   std::optional<double> height;
   std::vector<double> z_range;
+  std::optional<double> temperature;  // ultrasound: the air's, degC
+  double assumed_speed = 343.0;       // the speed of sound the ranges were computed with, m/s
   bool json = false;
 };
 
@@ -34,7 +37,12 @@ int run(const Options& o) {
   const ips::AnchorMap anchors = ips::load_anchors_yaml(o.anchors);
   std::ifstream in(o.ranges);
   if (!in) throw ips::InputError(o.ranges + ": cannot read the file");
-  const auto inputs = ips::parse_ranges_csv(in, o.ranges, anchors);
+  auto inputs = ips::parse_ranges_csv(in, o.ranges, anchors);
+  if (o.temperature) {  // ultrasound: every range scaled to the air's speed of sound
+    const double air = ips::ultrasound_range_scale(*o.temperature, o.assumed_speed);
+    for (auto& input : inputs)
+      for (auto& r : input.ranges) r.range_m *= air;
+  }
   std::vector<ips::NamedFix> fixes;
   int solved = 0;
   for (std::size_t i = 0; i < inputs.size(); ++i) {
@@ -84,6 +92,13 @@ IPS_REGISTER_COMMAND(
       sub.add_option("--z-range", o->z_range, "ZMIN ZMAX: the heights a tag can be at (m)")
           ->expected(2)
           ->excludes(height);
+      sub.add_option("--temperature", o->temperature,
+                     "ultrasound: the air's temperature (degC); ranges are scaled by c(T) / --assumed-speed")
+          ->check(CLI::Range(-40.0, 60.0));
+      sub.add_option("--assumed-speed", o->assumed_speed,
+                     "ultrasound: the speed of sound the ranges were computed with (m/s)")
+          ->check(CLI::Range(300.0, 400.0))
+          ->capture_default_str();
       sub.add_flag("--json", o->json, "write the fixes as JSON instead of CSV");
       return [o] { return run(*o); };
     });

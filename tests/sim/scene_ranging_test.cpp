@@ -1,8 +1,11 @@
 // The scene's ranges (anchors:, nlos_zones:, tags:): exact distances by hand, the noise, bias,
 // NLOS zones, dropouts and range limits they are drawn with, the errors a typo gets, and
 // `ips sim ranges` through `ips trilaterate` against the exact truth.
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -182,6 +185,52 @@ tags:
       1e3 * errors[50], 1e3 * errors[95], 1e3 * errors.back());
   EXPECT_LT(errors[50], 0.05);
   EXPECT_LT(errors[95], 0.12);
+}
+
+// Ultrasound: ranges a module computed with 343 m/s in a 35 degC room, exact otherwise.
+// `--temperature 35` scales them back (the fix within 1 mm of the truth); without it the fix
+// is centimetres off.
+TEST(SceneRanging, TrilaterateCorrectsUltrasoundRangesForTheTemperature) {
+  const fs::path dir = fs::temp_directory_path() / ("ips_trilaterate_temperature_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const double anchors[4][3] = {{0, 0, 2.5}, {6, 0, 1.0}, {6, 4, 2.5}, {0, 4, 0.4}};
+  const double truth[3] = {2.0, 1.5, 0.3};
+  {
+    std::ofstream a(dir / "anchors.yaml");
+    a << "anchors:\n";
+    for (int i = 0; i < 4; ++i)
+      a << "  - {id: " << i + 1 << ", x: " << anchors[i][0] << ", y: " << anchors[i][1] << ", z: " << anchors[i][2]
+        << "}\n";
+    std::ofstream r(dir / "ranges.csv");
+    r.precision(12);
+    r << "fix,reference,range\n";
+    const double c35 = 331.3 * std::sqrt(1.0 + 35.0 / 273.15);  // written out, not the library's
+    for (int i = 0; i < 4; ++i)
+      r << "f1," << i + 1 << ","
+        << std::hypot(anchors[i][0] - truth[0], anchors[i][1] - truth[1], anchors[i][2] - truth[2]) * 343.0 / c35
+        << "\n";
+  }
+  const auto fix_error = [&](const std::string& extra) {
+    const auto r = ips::test::run_program("ips", "trilaterate --anchors " + (dir / "anchors.yaml").string() +
+                                                     " --ranges " + (dir / "ranges.csv").string() + " --out " +
+                                                     (dir / "fixes.csv").string() + " --method lsq" + extra);
+    EXPECT_EQ(r.status, 0) << r.out;
+    std::ifstream in(dir / "fixes.csv");
+    std::string header, row;
+    std::getline(in, header);
+    std::getline(in, row);
+    double x = 0, y = 0, z = 0;
+    EXPECT_EQ(std::sscanf(row.c_str(), "f1,%lf,%lf,%lf", &x, &y, &z), 3) << row;
+    return std::hypot(x - truth[0], y - truth[1], z - truth[2]);
+  };
+  EXPECT_GT(fix_error(""), 0.02);
+  EXPECT_LT(fix_error(" --temperature 35 --assumed-speed 343"), 0.001);
+  const auto bad = ips::test::run_program("ips", "trilaterate --anchors " + (dir / "anchors.yaml").string() +
+                                                     " --ranges " + (dir / "ranges.csv").string() + " --out " +
+                                                     (dir / "fixes.csv").string() + " --temperature 95");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("--temperature"), std::string::npos) << bad.out;
+  fs::remove_all(dir);
 }
 
 }  // namespace
