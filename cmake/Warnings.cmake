@@ -13,7 +13,7 @@ function(ips_set_warnings target)
   # In a unity batch a file's private Impl (defined in the .cpp, holding a type of the file's
   # anonymous namespace) is no longer in "the main file", and GCC warns that its field's type has
   # internal linkage. True of any pimpl; nothing is shared across batches.
-  if(IPS_UNITY_BUILD AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+  if((IPS_UNITY_BUILD OR IPS_UNITY_PROGRAMS) AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
     target_compile_options(${target} PRIVATE -Wno-subobject-linkage)
   endif()
 endfunction()

@@ -2,8 +2,9 @@
 # The whole test suite, from a fresh Debian 12 machine:
 #   1. install the Debian packages (tools/setup.sh),
 #   2. check the formatting of every C and C++ file against .clang-format (clang-format-14),
-#   3. build the two programs as tools/demo.sh does on a fresh clone (build/programs),
-#   4. build and test the release configuration,
+#   3. configure the two programs as tools/demo.sh does on a fresh clone (build/programs),
+#   4. build and test the release configuration, libips and the programs in the users' unity
+#      batches (so the users' build is the one tested; it is not built a second time),
 #   5. build and test again under AddressSanitizer + UBSan, with clang: the fuzz targets (fuzz/)
 #      are libFuzzer programs there and each fuzzes for a few seconds (gcc's release build
 #      replays their corpora once).
@@ -19,21 +20,22 @@ jobs=$(nproc)
 # differs fails here with the lines clang-format would change.
 echo "=== formatting: clang-format-14 --dry-run --Werror ==="
 bash tools/format.sh --check
-# The users' build first (tools/demo.sh's on a fresh clone: unity batches, no tests), so that the
-# README's first command keeps compiling; ~3 min.
-echo "=== programs: configure + build (build/programs, tools/configure_programs.sh) ==="
+# The users' configuration (tools/demo.sh's on a fresh clone: no tests, no benchmarks) must
+# configure; its compile is the release configuration's below (same flags, same batches).
+echo "=== programs: configure (build/programs, tools/configure_programs.sh) ==="
 bash tools/configure_programs.sh
-cmake --build build/programs -j "$jobs" --target ips_tool ipsd
 configs=${IPS_TEST_CONFIGS:-"release asan"}
 for config in $configs; do
   build="build/$config"
   case "$config" in
-    release) flags=(-DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF -DIPS_BUILD_TESTS=ON -DIPS_FUZZ=ON) ;;
+    release) flags=(-DCMAKE_BUILD_TYPE=Release -DIPS_SANITIZE=OFF -DIPS_BUILD_TESTS=ON -DIPS_FUZZ=ON
+                    -DIPS_UNITY_BUILD=ON -DIPS_UNITY_PROGRAMS=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16) ;;
     # -O1 keeps image-heavy tests quick under the sanitizers without hiding errors; -g1 (line
     # tables) is all a sanitizer report needs and compiles faster than full debug info.
     asan)    flags=(-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14
                     -DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-g1 -O1" "-DCMAKE_C_FLAGS_DEBUG=-g1 -O1"
-                    -DIPS_SANITIZE=ON -DIPS_BUILD_TESTS=ON -DIPS_BUILD_BENCHMARKS=OFF -DIPS_FUZZ=ON) ;;
+                    -DIPS_SANITIZE=ON -DIPS_BUILD_TESTS=ON -DIPS_BUILD_BENCHMARKS=OFF -DIPS_FUZZ=ON
+                    -DIPS_UNITY_BUILD=OFF -DIPS_UNITY_PROGRAMS=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16) ;;
     *) echo "test.sh: unknown configuration '$config' (release|asan)" >&2; exit 2 ;;
   esac
   echo "=== $config: configure + build ($build) ==="
