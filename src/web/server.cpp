@@ -19,6 +19,7 @@
 #include "ips/core/error.h"
 #include "ips/web/web.h"
 #include "stream_hub.h"
+#include "thread_stack_floor.h"
 
 namespace ips {
 
@@ -253,6 +254,9 @@ std::once_flag library_once;
 WebServer::WebServer(const WebConfig& config, const std::string& dictionary)
     : impl_(std::make_unique<Impl>(config, dictionary)) {
   std::call_once(library_once, [] { mg_init_library(0); });
+  // CivetWeb's worker threads get at least this much stack (thread_stack_floor.cpp: glibc puts
+  // the libraries' static TLS inside the 100 KiB CivetWeb asks for).
+  spdlog::debug("web view: thread stacks at least {} KiB", web_detail::thread_stack_floor() / 1024);
   const std::string listen = config.host + ":" + std::to_string(config.port);
   // Every stream holds a thread for its lifetime; the other connections get max_connections
   // threads of their own, each held from accept until answered (an idle socket:
