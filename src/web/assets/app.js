@@ -202,6 +202,14 @@ function enablePanZoom(svg) {
   svg.addEventListener('dblclick', () => setView(home.slice()));
 }
 
+// Who placed a marker, for people: its cameras' names, plus "ranges" where range fixes took
+// part ("ranges" alone where no camera sees it); "–" for nothing.
+function placedBy(cams, sources) {
+  const ranged = sources.includes('ranges');
+  if (!cams.length) return ranged ? 'ranges' : '–';
+  return cams.join(' ') + (ranged ? ' + ranges' : '');
+}
+
 function cameraNames(mask) {
   const names = [];
   state.layout.cameras.forEach((c) => { if (mask & (1 << c.index)) names.push(c.name); });
@@ -235,10 +243,10 @@ function drawMarkers(msg) {
                                hasYaw: m.has_yaw === false ? 'false' : 'true' });
     g.classList.toggle('stale', m.age > STALE_S);
     g.classList.toggle('ranged', !sources.includes('camera'));
+    g.classList.toggle('held', m.has_yaw === false);  // the heading tick: the last measured, held
     const name = state.layout.markers[id];
     g.querySelector('text.label').textContent = name ? `${id} ${name}` : id;
-    g.querySelector('text.sub').textContent =
-      `${cams.join(' ') || '–'}${sources.includes('ranges') ? ' +ranges' : ''} · ${fmt(m.age, 1)} s`;
+    g.querySelector('text.sub').textContent = `${placedBy(cams, sources)} · ${fmt(m.age, 1)} s`;
     const trail = state.trails.get(id) || [];
     const last = trail[trail.length - 1];
     if (!last || Math.hypot(last[0] - m.x, last[1] - m.y) > 0.005) trail.push([m.x, m.y]);
@@ -282,8 +290,7 @@ function drawMarkerRow(m, name, cams, speed, sources) {
   const held = m.has_yaw === false ? ' held' : '';
   cell(tr, 'marker_yaw_deg', m.yaw * 180 / Math.PI, fmt(m.yaw * 180 / Math.PI, 1) + held, true);
   cell(tr, 'marker_speed', speed, fmt(speed, 2), true);
-  cell(tr, 'marker_cameras', cams.join(','), cams.join(' ') || '–');
-  cell(tr, 'marker_sources', sources.join(','), sources.join(' + '));
+  cell(tr, 'marker_cameras', cams.join(','), placedBy(cams, sources));
   cell(tr, 'marker_age', m.age, fmt(m.age, 1), true);
 }
 
