@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "ips/ranging/multilateration.h"
+#include "ips/ranging/range_tracker.h"
 
 namespace ips {
 namespace {
@@ -38,10 +39,20 @@ struct Row {
   Eigen::Vector3d truth;
 };
 
-TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
+struct StarLocSequence {
+  std::vector<Row> rows;                     // time order
+  std::map<int, Eigen::Vector3d> anchor_of;  // UWB module id -> position (Vicon frame)
+};
+
+// Loads loop-2d-fast_s2 (present = false where the data is absent).
+void load_starloc(StarLocSequence& seq, bool& present) {
+  auto& rows = seq.rows;
+  auto& anchor_of = seq.anchor_of;
+  present = false;
   const auto dir = starloc_dir();
   const auto csv = dir / "data" / "loop-2d-fast_s2" / "uwb.csv";
-  if (!std::filesystem::exists(csv)) GTEST_SKIP() << "no STAR-loc data at " << dir << " (IPS_STARLOC_DIR)";
+  if (!std::filesystem::exists(csv)) return;
+  present = true;
   // Anchor positions (Vicon frame) by marker id.
   std::map<int, Eigen::Vector3d> markers;
   {
@@ -62,7 +73,6 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
   for (std::size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
   for (const char* name : {"time_s", "range", "from_id", "to_id", "tag_pos_x", "gt_range", "range_calib", "std"})
     ASSERT_TRUE(col.count(name)) << "uwb.csv has no column " << name;
-  std::vector<Row> rows;
   while (std::getline(in, line)) {
     const auto c = split(line);
     if (c.size() < header.size() || c[col["tag_pos_x"]].empty() || c[col["range_calib"]].empty()) continue;
@@ -80,7 +90,6 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
   ASSERT_GT(rows.size(), 7000u);
   // The ranges' anchor ids are the UWB modules', not the marker file's: each module is the one
   // marker whose distance to the true tag position is the dataset's gt_range (to 1e-9 m).
-  std::map<int, Eigen::Vector3d> anchor_of;
   for (const Row& r : rows) {
     if (anchor_of.count(r.anchor)) continue;
     for (const auto& [id, pos] : markers)
@@ -88,6 +97,21 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
     ASSERT_TRUE(anchor_of.count(r.anchor)) << "no marker at gt_range of UWB anchor " << r.anchor;
   }
   ASSERT_EQ(anchor_of.size(), 8u);
+}
+
+double pct(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(p * double(v.size() - 1))];
+}
+
+TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
+  StarLocSequence seq;
+  bool present = false;
+  load_starloc(seq, present);
+  if (HasFatalFailure()) return;
+  if (!present) GTEST_SKIP() << "no STAR-loc data at " << starloc_dir() << " (IPS_STARLOC_DIR)";
+  const auto& rows = seq.rows;
+  auto& anchor_of = seq.anchor_of;
   // Every 100 ms and for each tag: the latest range to each anchor within the last 70 ms (one
   // round of the 8 anchors); the truth is the tag's position at the last of them.
   const auto solve_all = [&](bool calibrated, bool height_known, std::vector<double>& horizontal,
@@ -115,10 +139,6 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
       }
     }
   };
-  const auto pct = [](std::vector<double> v, double p) {
-    std::sort(v.begin(), v.end());
-    return v[static_cast<std::size_t>(p * double(v.size() - 1))];
-  };
   std::vector<double> h_cal, v_cal, h_raw, v_raw, h_known, v_known;
   solve_all(true, false, h_cal, v_cal);
   solve_all(false, false, h_raw, v_raw);
@@ -140,6 +160,84 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
   // The dataset's bias calibration helps, most of all in height.
   EXPECT_LT(pct(h_cal, 0.5), pct(h_raw, 0.5));
   EXPECT_LT(pct(v_cal, 0.5), pct(v_raw, 0.5));
+}
+
+// The issue's comparison: the ranges replayed in time order, one at a time, as a UWB module
+// sends them. The baseline: every 100 ms, each tag's latest range to each anchor within the
+// last 70 ms (>= 4 anchors), unweighted least squares. The default: the range tracker, fed
+// every raw range at its time. Both against the tag's motion-capture position at the latest
+// range; raw ranges (the dataset's bias calibration is not used: biases are the tracker's job).
+TEST(StarLoc, RangeTrackerBeatsTheSlidingWindowBaselineOnRawRanges) {
+  StarLocSequence seq;
+  bool present = false;
+  load_starloc(seq, present);
+  if (HasFatalFailure()) return;
+  if (!present) GTEST_SKIP() << "no STAR-loc data at " << starloc_dir() << " (IPS_STARLOC_DIR)";
+  auto rows = seq.rows;
+  std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) { return a.t < b.t; });
+  std::vector<Eigen::Vector3d> anchors;
+  std::map<int, std::size_t> index;
+  for (const auto& [id, pos] : seq.anchor_of) {
+    index[id] = anchors.size();
+    anchors.push_back(pos);
+  }
+  const RangeTrackerOptions options;  // the defaults: what ranging.track gives in ipsd
+  const double sigma = 0.1;           // the same 1-sigma for every range, as the baseline's
+  std::map<int, RangeTracker> trackers;
+  std::map<int, std::optional<RangeTrackState>> latest_state;
+  std::vector<double> base_2d, base_3d, track_2d, track_3d;
+  std::size_t end = 0;
+  const auto to_ns = [](double t) { return static_cast<std::int64_t>(std::llround(t * 1e9)); };
+  for (double t = 0.1; t < rows.back().t; t += 0.1) {
+    for (; end < rows.size() && rows[end].t <= t; ++end) {
+      const Row& r = rows[end];
+      auto it = trackers.try_emplace(r.tag, anchors, options).first;
+      it->second.add_anchor_range(to_ns(r.t), index.at(r.anchor), r.range, sigma);
+      latest_state[r.tag] = it->second.state();
+    }
+    for (int tag : {1, 2}) {
+      std::map<int, const Row*> latest;
+      for (std::size_t i = end; i-- > 0 && rows[i].t > t - 0.07;)
+        if (rows[i].tag == tag && !latest.count(rows[i].anchor)) latest[rows[i].anchor] = &rows[i];
+      if (latest.size() < 4 || !latest_state[tag]) continue;
+      std::vector<RangeToAnchor> ranges;
+      const Row* last = nullptr;
+      for (const auto& [anchor, r] : latest) {
+        ranges.push_back({seq.anchor_of.at(anchor), r->range, 0.1});
+        if (!last || r->t > last->t) last = r;
+      }
+      RangeSolveOptions plain;
+      plain.robust_sigmas = 0;
+      plain.reject_sigmas = 0;
+      const RangeFix fix = fix_least_squares(ranges, plain);
+      if (!fix.ok) continue;
+      base_2d.push_back((fix.position - last->truth).head<2>().norm());
+      base_3d.push_back((fix.position - last->truth).norm());
+      const Eigen::Vector3d p = latest_state[tag]->position;
+      track_2d.push_back((p - last->truth).head<2>().norm());
+      track_3d.push_back((p - last->truth).norm());
+    }
+  }
+  ASSERT_GT(base_2d.size(), 500u);
+  std::printf(
+      "STAR-loc loop-2d-fast_s2 raw ranges, %zu instants: baseline 2-D p50 %.1f p95 %.1f cm, 3-D p50 %.1f p95 %.1f "
+      "cm; range tracker 2-D p50 %.1f p95 %.1f cm, 3-D p50 %.1f p95 %.1f cm\n",
+      base_2d.size(), 100 * pct(base_2d, 0.5), 100 * pct(base_2d, 0.95), 100 * pct(base_3d, 0.5),
+      100 * pct(base_3d, 0.95), 100 * pct(track_2d, 0.5), 100 * pct(track_2d, 0.95), 100 * pct(track_3d, 0.5),
+      100 * pct(track_3d, 0.95));
+  for (const auto& [tag, tracker] : trackers) {
+    std::printf("tag %d: %llu accepted, %llu rejected, %llu restarts; biases", tag,
+                static_cast<unsigned long long>(tracker.accepted()),
+                static_cast<unsigned long long>(tracker.rejected()),
+                static_cast<unsigned long long>(tracker.restarts()));
+    for (double b : tracker.biases()) std::printf(" %.3f", b);
+    std::printf("\n");
+  }
+  // Measured 2026-11-27: baseline 2-D p50 21.1 p95 80.5 cm, 3-D 82.5 / 168.6 cm; tracker 2-D
+  // 12.3 / 31.6 cm, 3-D 36.3 / 103.0 cm (0.39x and 0.61x the baseline's p95). The issue asks
+  // for >= 30 % better; the vertical is what the anchors' geometry leaves weakest.
+  EXPECT_LT(pct(track_2d, 0.95), 0.7 * pct(base_2d, 0.95));
+  EXPECT_LT(pct(track_3d, 0.95), 0.7 * pct(base_3d, 0.95));
 }
 
 }  // namespace

@@ -1,0 +1,115 @@
+#pragma once
+// One tag followed from its ranges one at a time: an extended Kalman filter over the tag's
+// position and velocity (constant velocity, white-noise acceleration) and, optionally, each
+// fixed anchor's range bias, updated by every range at the time it was measured.
+//
+// Why not a fix per firing: real UWB systems (DW1000 two-way ranging, the STAR-loc dataset)
+// range one anchor at a time, ~8 ms apart, while the robot moves; a snapshot over a window of
+// the latest range per anchor mixes positions, needs >= 4 ranges to say anything, and treats a
+// module's constant bias as noise. The filter takes a range as soon as it is measured, weighs
+// it by the geometry it adds, learns the biases the anchors keep, and leaves out a range that
+// contradicts the track by more than the gate (non-line-of-sight: a positive excess).
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ips/ranging/multilateration.h"
+
+namespace ips {
+
+struct RangeTrackerOptions {
+  /// Spectral density of the white-noise acceleration (m^2/s^3): how hard the tag may
+  /// accelerate between ranges. 0.3 is ~0.5 m/s^2 sustained for a second: lab robots, a rig
+  /// carried by hand. Lower smooths more and lags more in a turn.
+  double process_noise = 0.3;
+  /// A range whose innovation exceeds this many of its predicted sigmas is left out (counted);
+  /// 0 = every range is used.
+  double gate_sigmas = 4.0;
+  /// Learn each fixed anchor's range bias (prior 1-sigma bias_sigma_m, drifting by
+  /// bias_drift m/sqrt(s)). Mobile references (other robots) carry no bias state.
+  bool estimate_bias = true;
+  double bias_sigma_m = 0.1;
+  double bias_drift = 0.001;
+  /// The tag's known height (a ground robot): the filter follows x, y only.
+  std::optional<double> known_height;
+  /// Otherwise, the heights the tag can be at (its first fix uses it; see RangeSolveOptions).
+  std::optional<std::pair<double, double>> z_range;
+  /// The first fix takes the latest range to each reference within this span (s)...
+  double init_window_s = 0.2;
+  /// ...and after this many ranges in a row left out by the gate the track starts over from a
+  /// new fix (it has lost the tag, or learnt a wrong bias).
+  int restart_after_rejections = 10;
+  /// A gap this long without an accepted range (s) also starts the track over.
+  double max_gap_s = 2.0;
+};
+
+/// What one range did to the track.
+enum class RangeUpdate {
+  kInitialising,  ///< kept for the first fix: too few references yet
+  kStarted,       ///< completed the first fix (or a restart's): the track now has a state
+  kAccepted,      ///< used by the filter
+  kRejected,      ///< left out by the gate (non-line-of-sight, or a wrong anchor)
+  kOutOfOrder,    ///< older than the track's time: left out (ranges must come in time order)
+  kInvalid,       ///< not a finite, positive range with a positive sigma
+};
+const char* range_update_word(RangeUpdate update);  // initialising, started, accepted, ...
+
+struct RangeTrackState {
+  std::int64_t t_ns = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of position, m^2 (z row/column 0 at a known height)
+};
+
+class RangeTracker {
+ public:
+  /// `anchors`: the fixed references this tag may range to, by index (a bias state each when
+  /// estimate_bias).
+  RangeTracker(std::vector<Eigen::Vector3d> anchors, RangeTrackerOptions options);
+
+  /// A range to fixed anchor `anchor` (an index into the constructor's list) measured at t_ns.
+  RangeUpdate add_anchor_range(std::int64_t t_ns, std::size_t anchor, double range_m, double sigma_m);
+  /// A range to a reference that moves (another robot): its position at t_ns and that
+  /// position's 1-sigma (isotropic, added to the range's in quadrature).
+  RangeUpdate add_mobile_range(std::int64_t t_ns, const Eigen::Vector3d& reference, double reference_sigma_m,
+                               double range_m, double sigma_m);
+
+  bool started() const { return started_; }
+  /// The state at the last range (nullopt before the first fix).
+  std::optional<RangeTrackState> state() const;
+  /// The state predicted to t_ns (>= the last range's time), covariance grown by the process noise.
+  std::optional<RangeTrackState> predict(std::int64_t t_ns) const;
+  /// Each fixed anchor's estimated bias (m; zeros without estimate_bias).
+  std::vector<double> biases() const;
+
+  std::uint64_t accepted() const { return accepted_; }
+  std::uint64_t rejected() const { return rejected_; }
+  std::uint64_t restarts() const { return restarts_; }
+
+ private:
+  struct Pending {
+    std::int64_t t_ns;
+    int anchor;  // -1: mobile
+    Eigen::Vector3d reference;
+    double range_m, sigma_m;
+  };
+  RangeUpdate add(const Pending& range);
+  RangeUpdate collect(const Pending& range);
+  void propagate(std::int64_t t_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const;
+  int dims() const { return options_.known_height ? 2 : 3; }
+
+  std::vector<Eigen::Vector3d> anchors_;
+  RangeTrackerOptions options_;
+  bool started_ = false;
+  std::int64_t t_ns_ = 0;
+  Eigen::VectorXd x_;  // position (dims), velocity (dims), a bias per anchor when estimated
+  Eigen::MatrixXd p_;
+  std::vector<Pending> pending_;  // ranges kept for the first fix
+  int rejections_in_a_row_ = 0;
+  std::uint64_t accepted_ = 0, rejected_ = 0, restarts_ = 0;
+};
+
+}  // namespace ips

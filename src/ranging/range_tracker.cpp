@@ -1,0 +1,180 @@
+#include "ips/ranging/range_tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace ips {
+
+const char* range_update_word(RangeUpdate update) {
+  switch (update) {
+    case RangeUpdate::kInitialising: return "initialising";
+    case RangeUpdate::kStarted: return "started";
+    case RangeUpdate::kAccepted: return "accepted";
+    case RangeUpdate::kRejected: return "rejected";
+    case RangeUpdate::kOutOfOrder: return "out_of_order";
+    case RangeUpdate::kInvalid: return "invalid";
+  }
+  return "invalid";
+}
+
+RangeTracker::RangeTracker(std::vector<Eigen::Vector3d> anchors, RangeTrackerOptions options)
+    : anchors_(std::move(anchors)), options_(std::move(options)) {
+  const int d = dims();
+  const int nb = options_.estimate_bias ? static_cast<int>(anchors_.size()) : 0;
+  x_ = Eigen::VectorXd::Zero(2 * d + nb);
+  p_ = Eigen::MatrixXd::Zero(2 * d + nb, 2 * d + nb);
+  for (int k = 0; k < nb; ++k) p_(2 * d + k, 2 * d + k) = options_.bias_sigma_m * options_.bias_sigma_m;
+}
+
+RangeUpdate RangeTracker::add_anchor_range(std::int64_t t_ns, std::size_t anchor, double range_m, double sigma_m) {
+  if (anchor >= anchors_.size()) return RangeUpdate::kInvalid;
+  return add({t_ns, static_cast<int>(anchor), anchors_[anchor], range_m, sigma_m});
+}
+
+RangeUpdate RangeTracker::add_mobile_range(std::int64_t t_ns, const Eigen::Vector3d& reference,
+                                           double reference_sigma_m, double range_m, double sigma_m) {
+  if (!std::isfinite(reference_sigma_m) || reference_sigma_m < 0 || !reference.allFinite())
+    return RangeUpdate::kInvalid;
+  return add({t_ns, -1, reference, range_m, std::hypot(sigma_m, reference_sigma_m)});
+}
+
+void RangeTracker::propagate(std::int64_t t_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const {
+  const double dt = 1e-9 * static_cast<double>(t_ns - t_ns_);
+  if (dt <= 0) return;
+  const int d = dims();
+  const int n = static_cast<int>(x.size());
+  Eigen::MatrixXd f = Eigen::MatrixXd::Identity(n, n);
+  f.block(0, d, d, d) = dt * Eigen::MatrixXd::Identity(d, d);
+  x = f * x;
+  p = f * p * f.transpose();
+  // White-noise acceleration of density q per axis; biases drift as a random walk.
+  const double q = options_.process_noise;
+  for (int k = 0; k < d; ++k) {
+    p(k, k) += q * dt * dt * dt / 3;
+    p(k, d + k) += q * dt * dt / 2;
+    p(d + k, k) += q * dt * dt / 2;
+    p(d + k, d + k) += q * dt;
+  }
+  for (int k = 2 * d; k < n; ++k) p(k, k) += options_.bias_drift * options_.bias_drift * dt;
+}
+
+RangeUpdate RangeTracker::add(const Pending& r) {
+  if (!std::isfinite(r.range_m) || r.range_m <= 0 || !std::isfinite(r.sigma_m) || r.sigma_m <= 0)
+    return RangeUpdate::kInvalid;
+  if (started_ && 1e-9 * static_cast<double>(r.t_ns - t_ns_) > options_.max_gap_s) {
+    started_ = false;  // lost for too long: start over from a new fix
+    ++restarts_;
+  }
+  if (!started_) return collect(r);
+  if (r.t_ns < t_ns_) return RangeUpdate::kOutOfOrder;
+
+  Eigen::VectorXd x = x_;
+  Eigen::MatrixXd p = p_;
+  propagate(r.t_ns, x, p);
+  const int d = dims();
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  position.head(d) = x.head(d);
+  if (options_.known_height) position.z() = *options_.known_height;
+  const Eigen::Vector3d delta = position - r.reference;
+  const double distance = std::max(delta.norm(), 1e-6);
+  const bool biased = options_.estimate_bias && r.anchor >= 0;
+  const int n = static_cast<int>(x.size());
+  Eigen::RowVectorXd h = Eigen::RowVectorXd::Zero(n);
+  h.head(d) = (delta / distance).head(d).transpose();
+  if (biased) h(2 * d + r.anchor) = 1.0;
+  const double predicted = distance + (biased ? x(2 * d + r.anchor) : 0.0);
+  const double innovation = r.range_m - predicted;
+  const double s = (h * p * h.transpose())(0, 0) + r.sigma_m * r.sigma_m;
+
+  // Time moves on whether the range is used or not: the next range predicts from here.
+  t_ns_ = r.t_ns;
+  x_ = x;
+  p_ = p;
+  if (options_.gate_sigmas > 0 && innovation * innovation > options_.gate_sigmas * options_.gate_sigmas * s) {
+    ++rejected_;
+    if (++rejections_in_a_row_ >= options_.restart_after_rejections) {
+      started_ = false;
+      ++restarts_;
+    }
+    return RangeUpdate::kRejected;
+  }
+  rejections_in_a_row_ = 0;
+  const Eigen::VectorXd k = p * h.transpose() / s;
+  x_ = x + k * innovation;
+  // Joseph form: stays symmetric and positive definite over hundreds of thousands of updates.
+  const Eigen::MatrixXd i_kh = Eigen::MatrixXd::Identity(n, n) - k * h;
+  p_ = i_kh * p * i_kh.transpose() + (r.sigma_m * r.sigma_m) * k * k.transpose();
+  ++accepted_;
+  return RangeUpdate::kAccepted;
+}
+
+RangeUpdate RangeTracker::collect(const Pending& r) {
+  pending_.push_back(r);
+  const auto window = static_cast<std::int64_t>(options_.init_window_s * 1e9);
+  std::erase_if(pending_, [&](const Pending& q) { return q.t_ns < r.t_ns - window || q.t_ns > r.t_ns; });
+  // The latest range to each reference (mobile ones are each their own reference).
+  std::map<int, const Pending*> latest;
+  std::vector<const Pending*> mobile;
+  for (const Pending& q : pending_) {
+    if (q.anchor < 0) {
+      // A robot ranged to again (within 5 cm of where it was): its latest range only.
+      std::erase_if(mobile, [&](const Pending* m) { return (m->reference - q.reference).norm() < 0.05; });
+      mobile.push_back(&q);
+    } else if (!latest.count(q.anchor) || latest[q.anchor]->t_ns <= q.t_ns) {
+      latest[q.anchor] = &q;
+    }
+  }
+  const int d = dims();
+  std::vector<RangeToAnchor> ranges;
+  for (const auto& [anchor, q] : latest) {
+    const double bias = options_.estimate_bias ? x_(2 * d + anchor) : 0.0;
+    ranges.push_back({q->reference, q->range_m - bias, q->sigma_m});
+  }
+  for (const Pending* q : mobile) ranges.push_back({q->reference, q->range_m, q->sigma_m});
+  if (static_cast<int>(ranges.size()) < d + 1) return RangeUpdate::kInitialising;
+  RangeSolveOptions solve;
+  solve.known_height = options_.known_height;
+  solve.z_range = options_.z_range;
+  const RangeFix fix = fix_least_squares(ranges, solve);
+  if (!fix.ok) return RangeUpdate::kInitialising;
+  // Position from the fix (its covariance, inflated for the motion within the window), the
+  // velocity unknown (1 m/s per axis); the biases learnt so far are kept.
+  x_.head(2 * d).setZero();
+  x_.head(d) = fix.position.head(d);
+  p_.topRows(2 * d).setZero();
+  p_.leftCols(2 * d).setZero();
+  p_.topLeftCorner(d, d) = 4.0 * fix.covariance.topLeftCorner(d, d) + 1e-4 * Eigen::MatrixXd::Identity(d, d);
+  p_.block(d, d, d, d) = Eigen::MatrixXd::Identity(d, d);
+  t_ns_ = r.t_ns;
+  started_ = true;
+  rejections_in_a_row_ = 0;
+  pending_.clear();
+  return RangeUpdate::kStarted;
+}
+
+std::optional<RangeTrackState> RangeTracker::state() const { return predict(t_ns_); }
+
+std::optional<RangeTrackState> RangeTracker::predict(std::int64_t t_ns) const {
+  if (!started_) return std::nullopt;
+  Eigen::VectorXd x = x_;
+  Eigen::MatrixXd p = p_;
+  propagate(std::max(t_ns, t_ns_), x, p);
+  const int d = dims();
+  RangeTrackState s;
+  s.t_ns = std::max(t_ns, t_ns_);
+  s.position.head(d) = x.head(d);
+  s.velocity.head(d) = x.segment(d, d);
+  if (options_.known_height) s.position.z() = *options_.known_height;
+  s.covariance.topLeftCorner(d, d) = p.topLeftCorner(d, d);
+  return s;
+}
+
+std::vector<double> RangeTracker::biases() const {
+  std::vector<double> out(anchors_.size(), 0.0);
+  if (options_.estimate_bias)
+    for (std::size_t k = 0; k < anchors_.size(); ++k) out[k] = x_(2 * dims() + static_cast<int>(k));
+  return out;
+}
+
+}  // namespace ips
