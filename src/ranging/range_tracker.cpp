@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <utility>
 
 namespace ips {
 
@@ -39,8 +40,8 @@ RangeUpdate RangeTracker::add_mobile_range(std::int64_t t_ns, const Eigen::Vecto
   return add({t_ns, -1, reference, range_m, std::hypot(sigma_m, reference_sigma_m)});
 }
 
-void RangeTracker::propagate(std::int64_t t_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const {
-  const double dt = 1e-9 * static_cast<double>(t_ns - t_ns_);
+void RangeTracker::propagate(std::int64_t from_ns, std::int64_t to_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const {
+  const double dt = 1e-9 * static_cast<double>(to_ns - from_ns);
   if (dt <= 0) return;
   const int d = dims();
   const int n = static_cast<int>(x.size());
@@ -62,16 +63,53 @@ void RangeTracker::propagate(std::int64_t t_ns, Eigen::VectorXd& x, Eigen::Matri
 RangeUpdate RangeTracker::add(const Pending& r) {
   if (!std::isfinite(r.range_m) || r.range_m <= 0 || !std::isfinite(r.sigma_m) || r.sigma_m <= 0)
     return RangeUpdate::kInvalid;
+  if (!started_ || r.t_ns >= t_ns_) return apply(r);
+  // Older than the track: replayed in its place if it is within the reorder window (the state
+  // before it restored, it applied, every newer range applied again), else left out.
+  if (r.t_ns < base_.t_ns) return RangeUpdate::kOutOfOrder;
+  std::size_t first_newer = 0;
+  while (first_newer < history_.size() && history_[first_newer].range.t_ns <= r.t_ns) ++first_newer;
+  restore(first_newer == 0 ? base_ : history_[first_newer - 1].after);
+  std::vector<Pending> newer;
+  for (std::size_t i = first_newer; i < history_.size(); ++i) newer.push_back(history_[i].range);
+  history_.resize(first_newer);
+  const RangeUpdate result = apply(r);
+  replaying_ = true;
+  for (const Pending& q : newer) apply(q);
+  replaying_ = false;
+  ++replayed_;
+  return result;
+}
+
+RangeTracker::Snapshot RangeTracker::snapshot() const { return {t_ns_, x_, p_, rejections_in_a_row_}; }
+
+void RangeTracker::restore(const Snapshot& s) {
+  t_ns_ = s.t_ns;
+  x_ = s.x;
+  p_ = s.p;
+  rejections_in_a_row_ = s.rejections;
+}
+
+void RangeTracker::remember(const Pending& r) {
+  history_.push_back({r, snapshot()});
+  const auto window = static_cast<std::int64_t>(options_.reorder_window_s * 1e9);
+  while (!history_.empty() && history_.front().range.t_ns < t_ns_ - window) {
+    base_ = std::move(history_.front().after);
+    history_.pop_front();
+  }
+}
+
+RangeUpdate RangeTracker::apply(const Pending& r) {
   if (started_ && 1e-9 * static_cast<double>(r.t_ns - t_ns_) > options_.max_gap_s) {
     started_ = false;  // lost for too long: start over from a new fix
-    ++restarts_;
+    history_.clear();
+    if (!replaying_) ++restarts_;
   }
   if (!started_) return collect(r);
-  if (r.t_ns < t_ns_) return RangeUpdate::kOutOfOrder;
 
   Eigen::VectorXd x = x_;
   Eigen::MatrixXd p = p_;
-  propagate(r.t_ns, x, p);
+  propagate(t_ns_, r.t_ns, x, p);
   const int d = dims();
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   position.head(d) = x.head(d);
@@ -92,11 +130,14 @@ RangeUpdate RangeTracker::add(const Pending& r) {
   x_ = x;
   p_ = p;
   if (options_.gate_sigmas > 0 && innovation * innovation > options_.gate_sigmas * options_.gate_sigmas * s) {
-    ++rejected_;
+    if (!replaying_) ++rejected_;
     if (++rejections_in_a_row_ >= options_.restart_after_rejections) {
       started_ = false;
-      ++restarts_;
+      if (!replaying_) ++restarts_;
+      history_.clear();
+      return RangeUpdate::kRejected;
     }
+    remember(r);
     return RangeUpdate::kRejected;
   }
   rejections_in_a_row_ = 0;
@@ -105,7 +146,8 @@ RangeUpdate RangeTracker::add(const Pending& r) {
   // Joseph form: stays symmetric and positive definite over hundreds of thousands of updates.
   const Eigen::MatrixXd i_kh = Eigen::MatrixXd::Identity(n, n) - k * h;
   p_ = i_kh * p * i_kh.transpose() + (r.sigma_m * r.sigma_m) * k * k.transpose();
-  ++accepted_;
+  if (!replaying_) ++accepted_;
+  remember(r);
   return RangeUpdate::kAccepted;
 }
 
@@ -150,6 +192,8 @@ RangeUpdate RangeTracker::collect(const Pending& r) {
   started_ = true;
   rejections_in_a_row_ = 0;
   pending_.clear();
+  history_.clear();
+  base_ = snapshot();
   return RangeUpdate::kStarted;
 }
 
@@ -157,12 +201,26 @@ std::optional<RangeTrackState> RangeTracker::state() const { return predict(t_ns
 
 std::optional<RangeTrackState> RangeTracker::predict(std::int64_t t_ns) const {
   if (!started_) return std::nullopt;
-  Eigen::VectorXd x = x_;
-  Eigen::MatrixXd p = p_;
-  propagate(std::max(t_ns, t_ns_), x, p);
+  return state_from(snapshot(), std::max(t_ns, t_ns_));
+}
+
+std::optional<RangeTrackState> RangeTracker::state_at(std::int64_t t_ns) const {
+  if (!started_) return std::nullopt;
+  if (t_ns >= t_ns_) return predict(t_ns);
+  if (t_ns < base_.t_ns) return std::nullopt;
+  const Snapshot* from = &base_;
+  for (const Applied& a : history_)
+    if (a.range.t_ns <= t_ns) from = &a.after;
+  return state_from(*from, t_ns);
+}
+
+RangeTrackState RangeTracker::state_from(const Snapshot& from, std::int64_t t_ns) const {
+  Eigen::VectorXd x = from.x;
+  Eigen::MatrixXd p = from.p;
+  propagate(from.t_ns, t_ns, x, p);
   const int d = dims();
   RangeTrackState s;
-  s.t_ns = std::max(t_ns, t_ns_);
+  s.t_ns = t_ns;
   s.position.head(d) = x.head(d);
   s.velocity.head(d) = x.segment(d, d);
   if (options_.known_height) s.position.z() = *options_.known_height;

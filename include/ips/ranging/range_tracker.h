@@ -10,6 +10,7 @@
 // it by the geometry it adds, learns the biases the anchors keep, and leaves out a range that
 // contradicts the track by more than the gate (non-line-of-sight: a positive excess).
 #include <cstdint>
+#include <deque>
 #include <optional>
 #include <span>
 #include <vector>
@@ -44,6 +45,9 @@ struct RangeTrackerOptions {
   int restart_after_rejections = 10;
   /// A gap this long without an accepted range (s) also starts the track over.
   double max_gap_s = 2.0;
+  /// A range up to this much older than the newest (s) is applied in its place and the newer
+  /// ones applied again after it (radio bursts, a bridge that batches); older ones are left out.
+  double reorder_window_s = 0.5;
 };
 
 /// What one range did to the track.
@@ -52,7 +56,7 @@ enum class RangeUpdate {
   kStarted,       ///< completed the first fix (or a restart's): the track now has a state
   kAccepted,      ///< used by the filter
   kRejected,      ///< left out by the gate (non-line-of-sight, or a wrong anchor)
-  kOutOfOrder,    ///< older than the track's time: left out (ranges must come in time order)
+  kOutOfOrder,    ///< older than the reorder window (or than the track's start): left out
   kInvalid,       ///< not a finite, positive range with a positive sigma
 };
 const char* range_update_word(RangeUpdate update);  // initialising, started, accepted, ...
@@ -82,12 +86,15 @@ class RangeTracker {
   std::optional<RangeTrackState> state() const;
   /// The state predicted to t_ns (>= the last range's time), covariance grown by the process noise.
   std::optional<RangeTrackState> predict(std::int64_t t_ns) const;
+  /// The state at t_ns from the ranges up to t_ns (within the reorder window; later: predict).
+  std::optional<RangeTrackState> state_at(std::int64_t t_ns) const;
   /// Each fixed anchor's estimated bias (m; zeros without estimate_bias).
   std::vector<double> biases() const;
 
   std::uint64_t accepted() const { return accepted_; }
   std::uint64_t rejected() const { return rejected_; }
   std::uint64_t restarts() const { return restarts_; }
+  std::uint64_t replayed() const { return replayed_; }  ///< late ranges applied in their place
 
  private:
   struct Pending {
@@ -96,9 +103,24 @@ class RangeTracker {
     Eigen::Vector3d reference;
     double range_m, sigma_m;
   };
+  struct Snapshot {
+    std::int64_t t_ns = 0;
+    Eigen::VectorXd x;
+    Eigen::MatrixXd p;
+    int rejections = 0;
+  };
+  struct Applied {  // a range of the reorder window and the state right after it
+    Pending range;
+    Snapshot after;
+  };
   RangeUpdate add(const Pending& range);
+  RangeUpdate apply(const Pending& range);
   RangeUpdate collect(const Pending& range);
-  void propagate(std::int64_t t_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const;
+  void propagate(std::int64_t from_ns, std::int64_t to_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const;
+  Snapshot snapshot() const;
+  void restore(const Snapshot& s);
+  void remember(const Pending& range);
+  RangeTrackState state_from(const Snapshot& from, std::int64_t t_ns) const;
   int dims() const { return options_.known_height ? 2 : 3; }
 
   std::vector<Eigen::Vector3d> anchors_;
@@ -109,7 +131,10 @@ class RangeTracker {
   Eigen::MatrixXd p_;
   std::vector<Pending> pending_;  // ranges kept for the first fix
   int rejections_in_a_row_ = 0;
-  std::uint64_t accepted_ = 0, rejected_ = 0, restarts_ = 0;
+  Snapshot base_;                // the state before the reorder window's oldest range
+  std::deque<Applied> history_;  // the reorder window, oldest first
+  bool replaying_ = false;       // applying newer ranges again: not counted twice
+  std::uint64_t accepted_ = 0, rejected_ = 0, restarts_ = 0, replayed_ = 0;
 };
 
 }  // namespace ips
