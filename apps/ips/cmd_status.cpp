@@ -122,6 +122,25 @@ int run_status(const StatusOptions& o) {
         std::printf(", unsolved %s %llu", why.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
     if (count(r, "unknown_references")) std::printf(", unknown references %llu", count(r, "unknown_references"));
     std::printf("\n");
+    // ranging.track: what the ranges did to the tracks, and each tag's learnt anchor biases.
+    if (const auto ranges = r.value("ranges", nlohmann::json::object()); !ranges.empty()) {
+      std::printf("    ranges:");
+      for (const auto& [what, n] : ranges.items())
+        if (n.is_number_unsigned())
+          std::printf(" %s %llu", what.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
+      std::printf("\n");
+    }
+    const auto tracks = r.value("tracks", nlohmann::json::array());
+    for (const auto& t : tracks) {
+      if (!t.is_object()) continue;
+      std::printf("    tag %llu: %s, %llu restarts, %llu late ranges replayed; learnt bias (cm):", count(t, "tag"),
+                  t.value("started", false) ? "tracking" : "waiting for a first fix", count(t, "restarts"),
+                  count(t, "replayed"));
+      const auto biases = t.value("biases", nlohmann::json::object());
+      for (const auto& [anchor, b] : biases.items())
+        if (b.is_number()) std::printf(" %s %+.1f", anchor.c_str(), 100.0 * b.get<double>());
+      std::printf("\n");
+    }
   }
   return 0;
 }

@@ -44,6 +44,20 @@ nlohmann::json RangeLink::status() const {
   const ips::RangeFixCounters& fixes = fixer_.counters();
   nlohmann::json failed = nlohmann::json::object();
   for (const auto& [why, n] : fixes.failed) failed[why] = n;
+  nlohmann::json ranges = nlohmann::json::object();
+  for (const auto& [what, n] : fixes.ranges) ranges[what] = n;
+  // Per tag: its track's restarts, late ranges replayed, and the bias it learnt per anchor
+  // (beyond the configured one): a bias that stays large says the anchor's `bias` is wrong.
+  nlohmann::json tracks = nlohmann::json::array();
+  for (const ips::RangeTrackSummary& t : fixer_.tracks()) {
+    nlohmann::json biases = nlohmann::json::object();
+    for (const auto& [anchor, b] : t.biases_m) biases[std::to_string(anchor)] = b;
+    tracks.push_back({{"tag", t.tag},
+                      {"started", t.started},
+                      {"restarts", t.restarts},
+                      {"replayed", t.replayed},
+                      {"biases", biases}});
+  }
   return {{"port", input_->port()},
           {"datagrams", in.datagrams},
           {"accepted", in.accepted},
@@ -53,6 +67,9 @@ nlohmann::json RangeLink::status() const {
           {"fixes_failed", failed},
           {"mobile_references", fixes.mobile_references},
           {"mobile_references_unknown", fixes.mobile_references_unknown},
+          {"track", config_.track},
+          {"ranges", ranges},
+          {"tracks", tracks},
           {"fixes_dropped_while_restarting", detached_}};
 }
 

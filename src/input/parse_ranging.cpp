@@ -72,6 +72,22 @@ RangingConfig parse_ranging(const YAML::Node& node, const std::string& file) {
     c.z_range = std::make_pair(lo, hi);
   }
   r.get_number("sigma", c.sigma_m, 0.0, true);
+  if (r.has("track")) {
+    const YAML::Node t = r.node("track");
+    if (t.IsMap()) {
+      MapReader m(t, "ranging.track", file);
+      RangeTrackerOptions& o = c.track_options;
+      m.get_number("process_noise", o.process_noise, 0.0, true);
+      m.get_number("gate", o.gate_sigmas, 0.0, false);
+      m.get("learn_bias", o.estimate_bias);
+      m.get_number("bias_sigma", o.bias_sigma_m, 0.0, true);
+      m.get_number("reorder_window", o.reorder_window_s, 0.0, false);
+      if (o.reorder_window_s > 10) m.fail(t["reorder_window"], "ranging.track.reorder_window", "must be <= 10 s");
+      m.finish();
+    } else {
+      r.get("track", c.track);  // true / false; anything else is refused there, naming the key
+    }
+  }
   if (r.has("ultrasound")) {
     MapReader u(r.node("ultrasound"), "ranging.ultrasound", file);
     double t = 20.0;

@@ -10,15 +10,20 @@
 
 namespace ips {
 
-std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, std::int64_t t_real_ns) {
-  const RangeFiring& f = admitted.firing;
-  const auto tag = config_.tag_markers.find(f.tag);
-  if (tag == config_.tag_markers.end()) {  // admission takes configured tags only
-    ++counters_.failed["unknown_tag"];
-    return std::nullopt;
+RangeFixer::RangeFixer(RangingConfig config, StateOf state_of)
+    : config_(std::move(config)), state_of_(std::move(state_of)) {
+  config_.track_options.known_height = config_.height;
+  config_.track_options.z_range = config_.z_range;
+  for (const auto& [id, anchor] : config_.anchors) {
+    anchor_ids_.push_back(id);
+    anchor_positions_.push_back(anchor.position);
   }
-  std::vector<RangeToAnchor> ranges;
-  ranges.reserve(f.entries.size());
+}
+
+std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& admitted) {
+  const RangeFiring& f = admitted.firing;
+  std::vector<Corrected> out;
+  out.reserve(f.entries.size());
   const double air =
       config_.temperature_c ? ultrasound_range_scale(*config_.temperature_c, config_.assumed_speed_of_sound) : 1.0;
   for (const RangeEntry& e : f.entries) {
@@ -32,20 +37,47 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
         continue;
       }
       const double dt = 1e-9 * static_cast<double>(age);
-      const double sigma = e.sigma_m > 0 ? e.sigma_m : config_.sigma_m;
       const double moved = 0.5 * 1.0 * dt * dt;  // an unknown acceleration of up to 1 m/s^2
-      const double reference_variance = state->covariance.trace() / 3.0 + moved * moved;
-      ranges.push_back(
-          {state->position + dt * state->velocity, air * e.range_m, std::sqrt(sigma * sigma + reference_variance)});
+      Corrected c;
+      c.mobile = true;
+      c.reference = state->position + dt * state->velocity;
+      c.range_m = air * e.range_m;
+      c.sigma_m = e.sigma_m > 0 ? e.sigma_m : config_.sigma_m;
+      c.reference_sigma_m = std::sqrt(state->covariance.trace() / 3.0 + moved * moved);
+      out.push_back(c);
       ++counters_.mobile_references;
       continue;
     }
     const auto a = config_.anchors.find(e.reference);
     if (a == config_.anchors.end()) continue;  // admission drops these (counted there)
     const RangingAnchor& anchor = a->second;
-    const double sigma = e.sigma_m > 0 ? e.sigma_m : anchor.sigma_m > 0 ? anchor.sigma_m : config_.sigma_m;
-    ranges.push_back({anchor.position, (air * e.range_m - anchor.bias_m) / anchor.scale, sigma});
+    Corrected c;
+    c.anchor = static_cast<std::size_t>(std::distance(config_.anchors.begin(), a));
+    c.reference = anchor.position;
+    c.range_m = (air * e.range_m - anchor.bias_m) / anchor.scale;
+    c.sigma_m = e.sigma_m > 0 ? e.sigma_m : anchor.sigma_m > 0 ? anchor.sigma_m : config_.sigma_m;
+    out.push_back(c);
   }
+  return out;
+}
+
+std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, std::int64_t t_real_ns) {
+  const auto tag = config_.tag_markers.find(admitted.firing.tag);
+  if (tag == config_.tag_markers.end()) {  // admission takes configured tags only
+    ++counters_.failed["unknown_tag"];
+    return std::nullopt;
+  }
+  const std::vector<Corrected> ranges = correct(admitted);
+  return config_.track ? track(ranges, admitted, tag->second, t_real_ns)
+                       : solve(ranges, admitted, tag->second, t_real_ns);
+}
+
+std::optional<WorldObservation> RangeFixer::solve(const std::vector<Corrected>& corrected,
+                                                  const AdmittedFiring& admitted, int marker, std::int64_t t_real_ns) {
+  std::vector<RangeToAnchor> ranges;
+  ranges.reserve(corrected.size());
+  for (const Corrected& c : corrected)
+    ranges.push_back({c.reference, c.range_m, std::hypot(c.sigma_m, c.reference_sigma_m)});
   RangeSolveOptions options;
   options.known_height = config_.height;
   options.z_range = config_.z_range;
@@ -61,7 +93,52 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
     return std::nullopt;
   }
   ++counters_.fixes;
-  return range_fix_observation(fix, tag->second, static_cast<int>(f.tag), admitted.t_mono_ns, t_real_ns);
+  return range_fix_observation(fix, marker, static_cast<int>(admitted.firing.tag), admitted.t_mono_ns, t_real_ns);
+}
+
+std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& corrected,
+                                                  const AdmittedFiring& admitted, int marker, std::int64_t t_real_ns) {
+  RangeTracker& tracker =
+      trackers_.try_emplace(admitted.firing.tag, anchor_positions_, config_.track_options).first->second;
+  const std::int64_t t = admitted.t_mono_ns;
+  bool used = false;
+  for (const Corrected& c : corrected) {
+    const RangeUpdate u = c.mobile ? tracker.add_mobile_range(t, c.reference, c.reference_sigma_m, c.range_m, c.sigma_m)
+                                   : tracker.add_anchor_range(t, c.anchor, c.range_m, c.sigma_m);
+    ++counters_.ranges[range_update_word(u)];
+    used = used || u == RangeUpdate::kAccepted || u == RangeUpdate::kStarted;
+  }
+  const auto state = used ? tracker.state_at(t) : std::nullopt;
+  if (!state) {
+    // Nothing of this firing moved the track: still gathering its first fix, or every range
+    // left out (by the gate, or older than the reorder window).
+    ++counters_.failed[tracker.started() ? "ranges_left_out" : "initialising"];
+    return std::nullopt;
+  }
+  RangeFix fix;
+  fix.ok = true;
+  fix.status = RangeFixStatus::kOk;
+  fix.position = state->position;
+  fix.covariance = state->covariance;
+  ++counters_.fixes;
+  return range_fix_observation(fix, marker, static_cast<int>(admitted.firing.tag), t, t_real_ns);
+}
+
+std::vector<RangeTrackSummary> RangeFixer::tracks() const {
+  std::vector<RangeTrackSummary> out;
+  for (const auto& [tag, tracker] : trackers_) {
+    RangeTrackSummary s;
+    s.tag = tag;
+    s.started = tracker.started();
+    s.restarts = tracker.restarts();
+    s.replayed = tracker.replayed();
+    if (config_.track_options.estimate_bias) {
+      const std::vector<double> b = tracker.biases();
+      for (std::size_t i = 0; i < b.size() && i < anchor_ids_.size(); ++i) s.biases_m[anchor_ids_[i]] = b[i];
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
 }
 
 }  // namespace ips

@@ -36,6 +36,15 @@ TEST_F(RangingConfig, OffWithoutTheSectionAndItsDefaultsWithIt) {
   const auto u = parse_text(with("  ultrasound: {temperature: 28.5}\n")).ranging;
   EXPECT_DOUBLE_EQ(u.temperature_c.value(), 28.5);
   EXPECT_DOUBLE_EQ(u.assumed_speed_of_sound, 343.0);
+  // Ranges go through a tracker per tag unless track: false.
+  EXPECT_TRUE(c.track);
+  EXPECT_EQ(c.track_options, RangeTrackerOptions{});
+  EXPECT_FALSE(parse_text(with("  track: false\n")).ranging.track);
+  const auto t = parse_text(with("  track: {process_noise: 2, gate: 0, learn_bias: false}\n")).ranging;
+  EXPECT_TRUE(t.track);
+  EXPECT_DOUBLE_EQ(t.track_options.process_noise, 2.0);
+  EXPECT_DOUBLE_EQ(t.track_options.gate_sigmas, 0.0);
+  EXPECT_FALSE(t.track_options.estimate_bias);
 }
 
 TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
@@ -54,6 +63,10 @@ TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
   expect_refused(with("", kThree, "[{id: 7, marker: 9}]") + "markers: {ids: {9: {fixed: [1, 2, 0]}}}\n",
                  {"ranging.tags", "fixed marker"});
   expect_refused(with("  prot: 5801\n"), {"ranging.prot", "unknown key"});
+  expect_refused(with("  track: {process_noise: 0}\n"), {"ranging.track.process_noise"});
+  expect_refused(with("  track: {gate: -1}\n"), {"ranging.track.gate"});
+  expect_refused(with("  track: {learn_biases: true}\n"), {"ranging.track.learn_biases", "unknown key"});
+  expect_refused(with("  track: maybe\n"), {"ranging.track"});
   expect_refused(with("  ultrasound: {assumed_speed: 340}\n"), {"ranging.ultrasound.temperature", "required"});
   expect_refused(with("  ultrasound: {temperature: 95}\n"), {"ranging.ultrasound.temperature", "[-40, 60]"});
   expect_refused(with("  ultrasound: {temperature: 20, assumed_speed: 34.3}\n"),

@@ -88,14 +88,17 @@ TEST(RangeFixer, UltrasoundRangesAreCorrectedForTheAirsTemperature) {
 }
 
 TEST(RangeFixer, TooFewAnchorsAreCountedByTheirWordAndAKnownHeightNeedsOneLess) {
-  RangeFixer fixer(lab());
+  // Each firing solved alone (track: false): a firing must carry enough ranges itself.
+  RangingConfig alone = lab();
+  alone.track = false;
+  RangeFixer fixer(alone);
   AdmittedFiring f = firing_at(lab(), {1.0, 1.0, 0.5});
   f.firing.entries.resize(3);  // three anchors: too few in 3-D
   EXPECT_FALSE(fixer.fix(f, 0).has_value());
   EXPECT_EQ(fixer.counters().fixes, 0u);
   ASSERT_EQ(fixer.counters().failed.count("too_few"), 1u);
   EXPECT_EQ(fixer.counters().failed.at("too_few"), 1u);
-  RangingConfig at_height = lab();
+  RangingConfig at_height = alone;
   at_height.height = 0.5;
   RangeFixer ground(at_height);
   const auto o = ground.fix(f, 0);
@@ -108,6 +111,7 @@ TEST(RangeFixer, AnotherRobotAsPublishedIsAMobileAnchorMovedToTheFiringTime) {
   // firing at (2.9, 2.0, 0.3) moving at (1, 0, 0) m/s: at the firing it is at (3.0, 2.0, 0.3),
   // and the range is to that point. Four references: the 3-D fix is exact.
   RangingConfig c = lab();
+  c.track = false;  // each firing alone: what the one firing's references give
   c.tag_markers[8] = 21;
   const Eigen::Vector3d tag(1.0, 1.0, 0.5), robot(3.0, 2.0, 0.3);
   AdmittedFiring f = firing_at(c, tag);
@@ -134,6 +138,46 @@ TEST(RangeFixer, AnotherRobotAsPublishedIsAMobileAnchorMovedToTheFiringTime) {
   RangeFixer alone(c);
   EXPECT_FALSE(alone.fix(f, 0).has_value());
   EXPECT_EQ(alone.counters().mobile_references_unknown, 1u);
+}
+
+TEST(RangeFixer, TrackedFiringsOfOneRangeEachGiveTheTagsPosition) {
+  // A UWB tag ranging one anchor per firing, round robin, 20 ms apart (ranging.track, the
+  // default): the first three firings only gather the first fix, every later one is published,
+  // at the tag's position for exact ranges. (A still tag cannot tell an anchor's bias from its
+  // own position: bias learning needs motion, tests/ranging/range_tracker_test.cpp.)
+  RangingConfig c = lab();
+  ASSERT_TRUE(c.track);
+  RangeFixer fixer(c);
+  const Eigen::Vector3d tag(1.5, 1.2, 0.3);
+  int published = 0;
+  for (int i = 0; i < 2000; ++i) {
+    AdmittedFiring f;
+    f.firing.tag = 7;
+    f.firing.firing = static_cast<std::uint32_t>(i);
+    f.t_mono_ns = 1'000'000'000 + static_cast<std::int64_t>(i) * 20'000'000;
+    const std::uint32_t anchor = 1 + static_cast<std::uint32_t>(i % 4);
+    const double range = (c.anchors.at(anchor).position - tag).norm();
+    f.firing.entries.push_back({anchor, false, range, 0.01});
+    const auto o = fixer.fix(f, 0);
+    if (i < 3) {
+      EXPECT_FALSE(o.has_value()) << i;
+    } else {
+      ASSERT_TRUE(o.has_value()) << i;
+      EXPECT_EQ(o->t_mono_ns, f.t_mono_ns);
+      ++published;
+      if (i == 1999) {
+        EXPECT_LT((o->p_world - tag).norm(), 1e-4);
+      }
+    }
+  }
+  EXPECT_EQ(published, 1997);
+  EXPECT_EQ(fixer.counters().failed.at("initialising"), 3u);
+  EXPECT_EQ(fixer.counters().ranges.at("started"), 1u);
+  const auto tracks = fixer.tracks();
+  ASSERT_EQ(tracks.size(), 1u);
+  EXPECT_EQ(tracks[0].tag, 7u);
+  EXPECT_TRUE(tracks[0].started);
+  for (std::uint32_t a = 1; a <= 4; ++a) EXPECT_NEAR(tracks[0].biases_m.at(a), 0.0, 1e-4) << a;
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // A firing taken by the range input -> a world observation for fusion: its ranges corrected by
-// each anchor's bias and scale, solved by the configured method, and published as the tag's
-// marker. Firings that cannot be solved are counted by the reason's word.
+// each anchor's bias and scale, then either fed one by one to the tag's range tracker
+// (ranging.track, the default) or solved together by the configured method, and published as
+// the tag's marker. Firings that give no position are counted by the reason's word.
 // Not thread-safe: owned by the range input's receive thread (counters() under the caller's lock).
 #pragma once
 
@@ -9,12 +10,14 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "ips/core/observation.h"
 #include "ips/input/range_admission.h"
 #include "ips/input/ranging_settings.h"
+#include "ips/ranging/range_tracker.h"
 
 namespace ips {
 
@@ -25,6 +28,18 @@ struct RangeFixCounters {
   /// Ranges to another tag left out: its robot has no published position within
   /// RangeFixer::kMobileReferenceAge of the firing.
   std::uint64_t mobile_references_unknown = 0;
+  /// ranging.track: what each range did to its tag's track, by range_update_word (accepted,
+  /// rejected, initialising, started, out_of_order, invalid).
+  std::map<std::string, std::uint64_t> ranges;
+};
+
+/// A tag's track as the status shows it.
+struct RangeTrackSummary {
+  std::uint32_t tag = 0;
+  bool started = false;
+  std::uint64_t restarts = 0;
+  std::uint64_t replayed = 0;                ///< late ranges applied in their place
+  std::map<std::uint32_t, double> biases_m;  ///< learnt per anchor, beyond the configured bias
 };
 
 /// A robot's latest published state, where another robot's tag ranges to it.
@@ -45,8 +60,7 @@ class RangeFixer {
   /// unknown 1 m/s^2 times the age squared, is added to the range's.
   static constexpr std::int64_t kMobileReferenceAge = 500'000'000;
 
-  explicit RangeFixer(RangingConfig config, StateOf state_of = {})
-      : config_(std::move(config)), state_of_(std::move(state_of)) {}
+  explicit RangeFixer(RangingConfig config, StateOf state_of = {});
 
   /// The observation of `firing`'s tag at its firing time, or nullopt (counted) if it cannot
   /// be solved. `t_real_ns` is the firing time on this host's CLOCK_REALTIME. A range to
@@ -56,11 +70,30 @@ class RangeFixer {
 
   const RangeFixCounters& counters() const { return counters_; }
   const RangingConfig& config() const { return config_; }
+  /// Every tag's track so far (ranging.track), by tag id.
+  std::vector<RangeTrackSummary> tracks() const;
 
  private:
+  /// One range of a firing, corrected and with its reference placed.
+  struct Corrected {
+    bool mobile = false;
+    std::size_t anchor = 0;  // index into anchor_ids_ (fixed anchors)
+    Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+    double range_m = 0, sigma_m = 0;
+    double reference_sigma_m = 0;  // mobile: the reference's own position uncertainty
+  };
+  std::vector<Corrected> correct(const AdmittedFiring& firing);
+  std::optional<WorldObservation> solve(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, int marker,
+                                        std::int64_t t_real_ns);
+  std::optional<WorldObservation> track(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, int marker,
+                                        std::int64_t t_real_ns);
+
   RangingConfig config_;
   StateOf state_of_;
   RangeFixCounters counters_;
+  std::vector<std::uint32_t> anchor_ids_;  // the configured anchors in id order
+  std::vector<Eigen::Vector3d> anchor_positions_;
+  std::map<std::uint32_t, RangeTracker> trackers_;  // by tag
 };
 
 }  // namespace ips

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "ips/input/range_admission.h"
+#include "ips/ranging/range_tracker.h"
 
 namespace ips {
 
@@ -41,6 +42,12 @@ struct RangingConfig {
   /// anchor's bias and scale are undone. Absent: ranges are used as sent (UWB: radio).
   std::optional<double> temperature_c;
   double assumed_speed_of_sound = 343.0;  ///< m/s the senders' modules convert time of flight with
+  /// ranging.track: each tag followed by a RangeTracker fed every range at its firing time (a
+  /// firing of one range is enough, anchor biases are learnt, non-line-of-sight ranges gated);
+  /// false: each firing solved alone by `method`, which then needs >= 4 ranges (3 at a height).
+  /// The tracker's known_height / z_range are `height` / `z_range` above.
+  bool track = true;
+  RangeTrackerOptions track_options;
 
   bool enabled() const { return input.port != 0; }
   bool operator==(const RangingConfig&) const = default;
