@@ -128,7 +128,7 @@ int run_status(const StatusOptions& o) {
       for (const auto& [what, n] : ranges.items())
         if (n.is_number_unsigned())
           std::printf(" %s %llu", what.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
-      std::printf("\n");
+      std::printf("; camera positions used %llu\n", count(r, "camera_references"));
     }
     const auto tracks = r.value("tracks", nlohmann::json::array());
     for (const auto& t : tracks) {

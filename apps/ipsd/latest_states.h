@@ -24,6 +24,7 @@ class LatestStates {
       r.velocity = f.has_velocity ? f.velocity : Eigen::Vector3d::Zero();
       r.covariance = f.covariance;
       r.t_mono_ns = f.t_mono_ns;
+      r.seen_by_cameras = f.camera_mask != 0;
     }
   }
   /// Marker `id`'s latest state, if it was ever published (range input's thread).

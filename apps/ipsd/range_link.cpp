@@ -68,6 +68,7 @@ nlohmann::json RangeLink::status() const {
           {"mobile_references", fixes.mobile_references},
           {"mobile_references_unknown", fixes.mobile_references_unknown},
           {"track", config_.track},
+          {"camera_references", fixes.camera_references},
           {"ranges", ranges},
           {"tracks", tracks},
           {"fixes_dropped_while_restarting", detached_}};

@@ -101,6 +101,18 @@ std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& 
   RangeTracker& tracker =
       trackers_.try_emplace(admitted.firing.tag, anchor_positions_, config_.track_options).first->second;
   const std::int64_t t = admitted.t_mono_ns;
+  // The cameras' view of this tag's own robot, once per camera-placed state: a position
+  // measurement at its own time (the track applies it in its place among the ranges).
+  if (config_.track_camera_reference && state_of_) {
+    const auto seen = state_of_(marker);
+    std::int64_t& used_ns = camera_reference_used_[admitted.firing.tag];
+    if (seen && seen->seen_by_cameras && seen->t_mono_ns > used_ns &&
+        std::abs(t - seen->t_mono_ns) <= kCameraReferenceAge) {
+      used_ns = seen->t_mono_ns;
+      const RangeUpdate u = tracker.add_position(seen->t_mono_ns, seen->position, seen->covariance);
+      if (u == RangeUpdate::kAccepted || u == RangeUpdate::kStarted) ++counters_.camera_references;
+    }
+  }
   bool used = false;
   for (const Corrected& c : corrected) {
     const RangeUpdate u = c.mobile ? tracker.add_mobile_range(t, c.reference, c.reference_sigma_m, c.range_m, c.sigma_m)

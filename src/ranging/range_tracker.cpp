@@ -5,6 +5,8 @@
 #include <map>
 #include <utility>
 
+#include <Eigen/Cholesky>
+
 namespace ips {
 
 const char* range_update_word(RangeUpdate update) {
@@ -60,6 +62,16 @@ void RangeTracker::propagate(std::int64_t from_ns, std::int64_t to_ns, Eigen::Ve
   for (int k = 2 * d; k < n; ++k) p(k, k) += options_.bias_drift * options_.bias_drift * dt;
 }
 
+RangeUpdate RangeTracker::add_position(std::int64_t t_ns, const Eigen::Vector3d& position,
+                                       const Eigen::Matrix3d& covariance) {
+  if (!position.allFinite() || !covariance.allFinite() || covariance.diagonal().minCoeff() < 0)
+    return RangeUpdate::kInvalid;
+  Pending r{t_ns, -1, position, 1.0, 1.0};
+  r.is_position = true;
+  r.covariance = covariance;
+  return add(r);
+}
+
 RangeUpdate RangeTracker::add(const Pending& r) {
   if (!std::isfinite(r.range_m) || r.range_m <= 0 || !std::isfinite(r.sigma_m) || r.sigma_m <= 0)
     return RangeUpdate::kInvalid;
@@ -105,11 +117,12 @@ RangeUpdate RangeTracker::apply(const Pending& r) {
     history_.clear();
     if (!replaying_) ++restarts_;
   }
-  if (!started_) return collect(r);
+  if (!started_) return r.is_position ? start_at(r) : collect(r);
 
   Eigen::VectorXd x = x_;
   Eigen::MatrixXd p = p_;
   propagate(t_ns_, r.t_ns, x, p);
+  if (r.is_position) return update_position(r, x, p);
   const int d = dims();
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   position.head(d) = x.head(d);
@@ -149,6 +162,45 @@ RangeUpdate RangeTracker::apply(const Pending& r) {
   if (!replaying_) ++accepted_;
   remember(r);
   return RangeUpdate::kAccepted;
+}
+
+RangeUpdate RangeTracker::update_position(const Pending& r, const Eigen::VectorXd& x, const Eigen::MatrixXd& p) {
+  const int d = dims();
+  const int n = static_cast<int>(x.size());
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(d, n);
+  h.leftCols(d).setIdentity();
+  // A floor on the reference's variance (0.1 mm): a camera fix is never exact, and a zero would
+  // make the update singular at a known height's z.
+  const Eigen::MatrixXd r_cov = r.covariance.topLeftCorner(d, d) + 1e-8 * Eigen::MatrixXd::Identity(d, d);
+  const Eigen::MatrixXd s = h * p * h.transpose() + r_cov;
+  const Eigen::MatrixXd k = p * h.transpose() * s.ldlt().solve(Eigen::MatrixXd::Identity(d, d));
+  t_ns_ = r.t_ns;
+  x_ = x + k * (r.reference.head(d) - x.head(d));
+  const Eigen::MatrixXd i_kh = Eigen::MatrixXd::Identity(n, n) - k * h;
+  p_ = i_kh * p * i_kh.transpose() + k * r_cov * k.transpose();
+  rejections_in_a_row_ = 0;
+  if (!replaying_) ++positions_;
+  remember(r);
+  return RangeUpdate::kAccepted;
+}
+
+RangeUpdate RangeTracker::start_at(const Pending& r) {
+  // The track starts where the other source saw the tag (the biases learnt so far kept).
+  const int d = dims();
+  x_.head(2 * d).setZero();
+  x_.head(d) = r.reference.head(d);
+  p_.topRows(2 * d).setZero();
+  p_.leftCols(2 * d).setZero();
+  p_.topLeftCorner(d, d) = r.covariance.topLeftCorner(d, d) + 1e-6 * Eigen::MatrixXd::Identity(d, d);
+  p_.block(d, d, d, d) = Eigen::MatrixXd::Identity(d, d);
+  t_ns_ = r.t_ns;
+  started_ = true;
+  rejections_in_a_row_ = 0;
+  pending_.clear();
+  history_.clear();
+  base_ = snapshot();
+  if (!replaying_) ++positions_;
+  return RangeUpdate::kStarted;
 }
 
 RangeUpdate RangeTracker::collect(const Pending& r) {

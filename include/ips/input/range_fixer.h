@@ -31,6 +31,8 @@ struct RangeFixCounters {
   /// ranging.track: what each range did to its tag's track, by range_update_word (accepted,
   /// rejected, initialising, started, out_of_order, invalid).
   std::map<std::string, std::uint64_t> ranges;
+  /// ranging.track.camera_reference: camera-seen states of a tag's own robot used by its track.
+  std::uint64_t camera_references = 0;
 };
 
 /// A tag's track as the status shows it.
@@ -48,6 +50,7 @@ struct MobileReference {
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();    ///< m/s; zero when not known
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of position, m^2
   std::int64_t t_mono_ns = 0;
+  bool seen_by_cameras = false;  ///< the cameras placed this state (not ranges alone)
 };
 
 class RangeFixer {
@@ -59,6 +62,9 @@ class RangeFixer {
   /// a busy machine); older, the range to it is left out. The move's own uncertainty, half an
   /// unknown 1 m/s^2 times the age squared, is added to the range's.
   static constexpr std::int64_t kMobileReferenceAge = 500'000'000;
+  /// ranging.track.camera_reference: a camera-placed state of the tag's own robot at most this
+  /// far from the firing is fed to its track (within the track's reorder window).
+  static constexpr std::int64_t kCameraReferenceAge = 300'000'000;
 
   explicit RangeFixer(RangingConfig config, StateOf state_of = {});
 
@@ -93,7 +99,8 @@ class RangeFixer {
   RangeFixCounters counters_;
   std::vector<std::uint32_t> anchor_ids_;  // the configured anchors in id order
   std::vector<Eigen::Vector3d> anchor_positions_;
-  std::map<std::uint32_t, RangeTracker> trackers_;  // by tag
+  std::map<std::uint32_t, RangeTracker> trackers_;               // by tag
+  std::map<std::uint32_t, std::int64_t> camera_reference_used_;  // by tag: the last camera state's time fed
 };
 
 }  // namespace ips

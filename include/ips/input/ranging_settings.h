@@ -48,6 +48,11 @@ struct RangingConfig {
   /// The tracker's known_height / z_range are `height` / `z_range` above.
   bool track = true;
   RangeTrackerOptions track_options;
+  /// ranging.track.camera_reference: where the cameras see a tag's own robot, their position
+  /// is a measurement of its track. The ranges measured meanwhile then calibrate each anchor's
+  /// bias against the cameras, and a robot that leaves the cameras' view is handed over from
+  /// their position, not from a track of its own.
+  bool track_camera_reference = true;
 
   bool enabled() const { return input.port != 0; }
   bool operator==(const RangingConfig&) const = default;

@@ -87,6 +87,12 @@ class RangeTracker {
   RangeUpdate add_mobile_range(std::int64_t t_ns, const Eigen::Vector3d& reference, double reference_sigma_m,
                                double range_m, double sigma_m);
 
+  /// The tag's position seen another way at t_ns (the cameras, where they see its robot), with
+  /// its covariance (m^2): a position update. With bias states this is what calibrates the
+  /// anchors: ranges from a known position say exactly how long each anchor reads. It also
+  /// starts a track that has none yet. Not gated (the cameras are the reference).
+  RangeUpdate add_position(std::int64_t t_ns, const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance);
+
   bool started() const { return started_; }
   /// The state at the last range (nullopt before the first fix).
   std::optional<RangeTrackState> state() const;
@@ -100,14 +106,17 @@ class RangeTracker {
   std::uint64_t accepted() const { return accepted_; }
   std::uint64_t rejected() const { return rejected_; }
   std::uint64_t restarts() const { return restarts_; }
-  std::uint64_t replayed() const { return replayed_; }  ///< late ranges applied in their place
+  std::uint64_t replayed() const { return replayed_; }    ///< late ranges applied in their place
+  std::uint64_t positions() const { return positions_; }  ///< add_position updates used
 
  private:
   struct Pending {
     std::int64_t t_ns;
-    int anchor;  // -1: mobile
-    Eigen::Vector3d reference;
+    int anchor;                 // -1: mobile
+    Eigen::Vector3d reference;  // the reference's position, or the position measured (is_position)
     double range_m, sigma_m;
+    bool is_position = false;
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // is_position: of the position
   };
   struct Snapshot {
     std::int64_t t_ns = 0;
@@ -122,6 +131,8 @@ class RangeTracker {
   RangeUpdate add(const Pending& range);
   RangeUpdate apply(const Pending& range);
   RangeUpdate collect(const Pending& range);
+  RangeUpdate update_position(const Pending& position, const Eigen::VectorXd& x, const Eigen::MatrixXd& p);
+  RangeUpdate start_at(const Pending& position);
   void propagate(std::int64_t from_ns, std::int64_t to_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const;
   Snapshot snapshot() const;
   void restore(const Snapshot& s);
@@ -140,7 +151,7 @@ class RangeTracker {
   Snapshot base_;                // the state before the reorder window's oldest range
   std::deque<Applied> history_;  // the reorder window, oldest first
   bool replaying_ = false;       // applying newer ranges again: not counted twice
-  std::uint64_t accepted_ = 0, rejected_ = 0, restarts_ = 0, replayed_ = 0;
+  std::uint64_t accepted_ = 0, rejected_ = 0, restarts_ = 0, replayed_ = 0, positions_ = 0;
 };
 
 }  // namespace ips
