@@ -23,6 +23,13 @@ const char* wire_source_name(unsigned bit) {
   }
 }
 
+std::vector<const char*> wire_source_names(std::uint16_t sources) {
+  std::vector<const char*> names;
+  for (unsigned bit = 0; bit < 16; ++bit)
+    if (const char* name = wire_source_name(bit); name && (sources >> bit & 1u)) names.push_back(name);
+  return names;
+}
+
 namespace codec_detail {
 
 void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity, bool sources) {
@@ -40,14 +47,13 @@ void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity, 
   if (sources) {
     out += ",\"sources\":[";
     bool first = true;
-    for (unsigned bit = 0; bit < 16; ++bit)
-      if (const char* name = wire_source_name(bit); name && (m.sources >> bit & 1u)) {
-        if (!first) out.push_back(',');
-        out += '"';
-        out += name;
-        out += '"';
-        first = false;
-      }
+    for (const char* name : wire_source_names(m.sources)) {
+      if (!first) out.push_back(',');
+      out += '"';
+      out += name;
+      out += '"';
+      first = false;
+    }
     out += m.has_yaw ? "],\"has_yaw\":true" : "],\"has_yaw\":false";
   }
   out.push_back('}');

@@ -133,8 +133,7 @@ Message StreamHub::markers_message(std::int64_t now) const {
     if (e.has_velocity) o.update({{"vx", m.vx}, {"vy", m.vy}});  // absent: not measured (as for bodies)
     // What placed it (cameras, ranges) and whether the heading was measured or is held.
     auto& sources = o["sources"] = nlohmann::json::array();
-    for (unsigned bit = 0; bit < 16; ++bit)
-      if (const char* name = wire_source_name(bit); name && (m.sources >> bit & 1u)) sources.push_back(name);
+    for (const char* name : wire_source_names(m.sources)) sources.push_back(name);
     o["has_yaw"] = m.has_yaw;
     list.push_back(std::move(o));
   }

@@ -79,6 +79,9 @@ bool valid_body_name(const std::string& name);
 /// The name of IPS_WIRE_SOURCE_* bit `bit` in the JSON form and the web view ("camera",
 /// "ranges"); nullptr for a bit this build does not know.
 const char* wire_source_name(unsigned bit);
+/// The names of the known bits set in a record's `sources`, lowest bit first (unknown bits
+/// are skipped: a later sender's source this build cannot name).
+std::vector<const char*> wire_source_names(std::uint16_t sources);
 
 /// The message a receiver gives for a datagram of a protocol version it does not read.
 std::string unsupported_version_message(unsigned version);
