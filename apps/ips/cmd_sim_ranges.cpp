@@ -1,5 +1,6 @@
 // `ips sim ranges`: the ranges the scene's tags measure when they fire, as `ips trilaterate`
-// reads them (ranges.csv, anchors.yaml), with the exact tag positions beside them (truth.csv).
+// reads them (ranges.csv, anchors.yaml), with the exact tag positions beside them (truth.csv);
+// or, with --send, fired in real time to an ipsd range input (sim_range_sender.h).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -13,15 +14,46 @@
 #include "image_io.h"
 #include "ips/core/error.h"
 #include "ips/sim/scene.h"
+#include "sim_range_sender.h"
 
 namespace cmd_sim_ranges {  // named, not anonymous: unique in a unity build
 
 struct Args {
-  std::string scene, out, truth, anchors;
-  double rate = 10.0, seconds = 10.0;
+  std::string scene, out, truth, anchors, send, psk;
+  double rate = 10.0, seconds = 10.0, start = 0.0;
   unsigned seed = 1;
   std::vector<int> tags;
+  TransportFaults faults;
 };
+
+SendPlan send_plan(const Args& a) {
+  SendPlan plan;
+  const auto colon = a.send.rfind(':');
+  int port = 0;
+  try {
+    port = colon == std::string::npos ? 0 : std::stoi(a.send.substr(colon + 1));
+  } catch (const std::exception&) {
+    port = 0;
+  }
+  if (port < 1 || port > 65535)
+    throw ips::InputError("--send: expected HOST:PORT (ipsd's ranging.port), got '" + a.send + "'");
+  plan.host = a.send.substr(0, colon);
+  plan.port = static_cast<std::uint16_t>(port);
+  plan.psk = a.psk;
+  plan.rate_hz = a.rate;
+  plan.seconds = a.seconds;
+  plan.scene_start_s = a.start;
+  plan.seed = a.seed;
+  plan.tags = a.tags;
+  plan.faults = a.faults;
+  plan.truth_csv = a.truth;
+  const TransportFaults& f = a.faults;
+  if (!(f.max_delay_s >= 0 && f.max_delay_s <= 10)) throw ips::InputError("--delay: must be in [0, 10] s");
+  if (!(f.burst_s >= 0 && f.burst_s <= 10)) throw ips::InputError("--burst: must be in [0, 10] s");
+  if (!(f.loss >= 0 && f.loss < 1)) throw ips::InputError("--loss: must be in [0, 1)");
+  if (!(f.duplicate >= 0 && f.duplicate <= 1)) throw ips::InputError("--duplicate: must be in [0, 1]");
+  return plan;
+}
 
 int run(const Args& a) {
   const ips::sim::Scene scene = ips::sim::Scene::load(a.scene);
@@ -34,6 +66,8 @@ int run(const Args& a) {
   for (int id : wanted)
     if (std::none_of(scene.tags.begin(), scene.tags.end(), [&](const auto& t) { return t.id == id; }))
       throw ips::InputError("--tag " + std::to_string(id) + ": not a tag of " + a.scene);
+  if (a.out.empty() == a.send.empty()) throw ips::InputError("give either --out (a file) or --send (to ipsd)");
+  if (!a.send.empty()) return send_ranges(scene, send_plan(a));
 
   std::ostringstream ranges, truth;
   ranges.precision(9);
@@ -86,13 +120,25 @@ int run(const Args& a) {
 std::function<int()> setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
   sub.add_option("--scene", a->scene, "Scene YAML file with anchors: and tags:")->required();
-  sub.add_option("--out", a->out, "Ranges CSV, as ips trilaterate reads it")->required();
-  sub.add_option("--truth", a->truth, "Exact tag positions per fix: fix,tag,t,x,y,z");
+  sub.add_option("--out", a->out, "Ranges CSV, as ips trilaterate reads it (or --send)");
+  sub.add_option("--truth", a->truth, "Exact tag positions per fix: fix,tag,t,x,y,z (--send: and firing_realtime_ns)");
   sub.add_option("--anchors", a->anchors, "Write the scene's anchors as ips trilaterate's anchors.yaml");
   sub.add_option("--rate", a->rate, "Firings per second of every tag")->capture_default_str();
   sub.add_option("--seconds", a->seconds, "Scene time to simulate")->capture_default_str();
   sub.add_option("--seed", a->seed, "Random seed of the noise and dropouts")->capture_default_str();
   sub.add_option("--tag", a->tags, "Only these tags (repeatable; default all)");
+  sub.add_option("--send", a->send,
+                 "HOST:PORT: fire in real time to ipsd's range input for --seconds of wall time, instead of --out");
+  sub.add_option("--psk", a->psk, "--send: the range input's pre-shared key (ranging.psk)");
+  sub.add_option("--start", a->start, "--send: the scene time of the first firing (s)")->capture_default_str();
+  sub.add_option("--delay", a->faults.max_delay_s, "--send: hold each datagram back by up to this many seconds")
+      ->capture_default_str();
+  sub.add_option("--burst", a->faults.burst_s, "--send: release datagrams only at the end of slots this long (s)")
+      ->capture_default_str();
+  sub.add_option("--loss", a->faults.loss, "--send: probability a datagram is lost")->capture_default_str();
+  sub.add_option("--duplicate", a->faults.duplicate, "--send: probability a datagram is sent twice")
+      ->capture_default_str();
+  sub.add_option("--unknown-anchor", a->faults.unknown_anchor, "--send: every firing also ranges to this anchor id");
   return [a] { return run(*a); };
 }
 

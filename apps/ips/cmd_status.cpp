@@ -133,9 +133,11 @@ int run_status(const StatusOptions& o) {
     const auto tracks = r.value("tracks", nlohmann::json::array());
     for (const auto& t : tracks) {
       if (!t.is_object()) continue;
-      std::printf("    tag %llu: %s, %llu restarts, %llu late ranges replayed; learnt bias (cm):", count(t, "tag"),
-                  t.value("started", false) ? "tracking" : "waiting for a first fix", count(t, "restarts"),
-                  count(t, "replayed"));
+      std::printf(
+          "    tag %llu: %s, %llu restarts, %llu late ranges replayed; %s (cm):", count(t, "tag"),
+          t.value("started", false) ? "tracking" : "waiting for a first fix", count(t, "restarts"),
+          count(t, "replayed"),
+          t.value("learning_bias", false) ? "learnt bias" : "bias not learnt (few anchors, no camera reference)");
       const auto biases = t.value("biases", nlohmann::json::object());
       for (const auto& [anchor, b] : biases.items())
         if (b.is_number()) std::printf(" %s %+.1f", anchor.c_str(), 100.0 * b.get<double>());

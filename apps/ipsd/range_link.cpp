@@ -56,6 +56,7 @@ nlohmann::json RangeLink::status() const {
                       {"started", t.started},
                       {"restarts", t.restarts},
                       {"replayed", t.replayed},
+                      {"learning_bias", t.learning_bias},
                       {"biases", biases}});
   }
   return {{"port", input_->port()},

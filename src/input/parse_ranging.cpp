@@ -79,7 +79,19 @@ RangingConfig parse_ranging(const YAML::Node& node, const std::string& file) {
       RangeTrackerOptions& o = c.track_options;
       m.get_number("process_noise", o.process_noise, 0.0, true);
       m.get_number("gate", o.gate_sigmas, 0.0, false);
-      m.get("learn_bias", o.estimate_bias);
+      if (m.has("learn_bias")) {
+        std::string learn = "auto";
+        m.get("learn_bias", learn);  // YAML's true / false read as their words
+        using L = RangeTrackerOptions::BiasLearning;
+        if (learn == "auto")
+          o.bias_learning = L::kAuto;
+        else if (learn == "true")
+          o.bias_learning = L::kOn;
+        else if (learn == "false")
+          o.bias_learning = L::kOff;
+        else
+          m.fail(t["learn_bias"], "ranging.track.learn_bias", "expected auto, true or false, got '" + learn + "'");
+      }
       m.get_number("bias_sigma", o.bias_sigma_m, 0.0, true);
       m.get_number("reorder_window", o.reorder_window_s, 0.0, false);
       m.get("camera_reference", c.track_camera_reference);

@@ -144,7 +144,8 @@ std::vector<RangeTrackSummary> RangeFixer::tracks() const {
     s.started = tracker.started();
     s.restarts = tracker.restarts();
     s.replayed = tracker.replayed();
-    if (config_.track_options.estimate_bias) {
+    s.learning_bias = tracker.learning_bias();
+    {
       const std::vector<double> b = tracker.biases();
       for (std::size_t i = 0; i < b.size() && i < anchor_ids_.size(); ++i) s.biases_m[anchor_ids_[i]] = b[i];
     }

@@ -24,10 +24,23 @@ const char* range_update_word(RangeUpdate update) {
 RangeTracker::RangeTracker(std::vector<Eigen::Vector3d> anchors, RangeTrackerOptions options)
     : anchors_(std::move(anchors)), options_(std::move(options)) {
   const int d = dims();
-  const int nb = options_.estimate_bias ? static_cast<int>(anchors_.size()) : 0;
+  has_bias_ = options_.bias_learning != RangeTrackerOptions::BiasLearning::kOff && !anchors_.empty();
+  bias_locked_ =
+      options_.bias_learning == RangeTrackerOptions::BiasLearning::kAuto && static_cast<int>(anchors_.size()) < d + 3;
+  const int nb = has_bias_ ? static_cast<int>(anchors_.size()) : 0;
   x_ = Eigen::VectorXd::Zero(2 * d + nb);
   p_ = Eigen::MatrixXd::Zero(2 * d + nb, 2 * d + nb);
-  for (int k = 0; k < nb; ++k) p_(2 * d + k, 2 * d + k) = options_.bias_sigma_m * options_.bias_sigma_m;
+  if (!bias_locked_)
+    for (int k = 0; k < nb; ++k) p_(2 * d + k, 2 * d + k) = options_.bias_sigma_m * options_.bias_sigma_m;
+}
+
+void RangeTracker::unlock_bias() {
+  // The tag's position is now known another way: bias and position can be told apart. The
+  // biases (held at 0 so far, uncorrelated with the rest) get their prior.
+  if (!has_bias_ || !bias_locked_) return;
+  bias_locked_ = false;
+  const int d = dims();
+  for (int k = 2 * d; k < static_cast<int>(x_.size()); ++k) p_(k, k) = options_.bias_sigma_m * options_.bias_sigma_m;
 }
 
 RangeUpdate RangeTracker::add_anchor_range(std::int64_t t_ns, std::size_t anchor, double range_m, double sigma_m) {
@@ -59,7 +72,8 @@ void RangeTracker::propagate(std::int64_t from_ns, std::int64_t to_ns, Eigen::Ve
     p(d + k, k) += q * dt * dt / 2;
     p(d + k, d + k) += q * dt;
   }
-  for (int k = 2 * d; k < n; ++k) p(k, k) += options_.bias_drift * options_.bias_drift * dt;
+  if (!bias_locked_)
+    for (int k = 2 * d; k < n; ++k) p(k, k) += options_.bias_drift * options_.bias_drift * dt;
 }
 
 RangeUpdate RangeTracker::add_position(std::int64_t t_ns, const Eigen::Vector3d& position,
@@ -69,6 +83,7 @@ RangeUpdate RangeTracker::add_position(std::int64_t t_ns, const Eigen::Vector3d&
   Pending r{t_ns, -1, position, 1.0, 1.0};
   r.is_position = true;
   r.covariance = covariance;
+  unlock_bias();
   return add(r);
 }
 
@@ -100,6 +115,10 @@ void RangeTracker::restore(const Snapshot& s) {
   x_ = s.x;
   p_ = s.p;
   rejections_in_a_row_ = s.rejections;
+  // A state from before the biases were unlocked: they get their prior, as unlock_bias() gave.
+  if (has_bias_ && !bias_locked_)
+    for (int k = 2 * dims(); k < static_cast<int>(x_.size()); ++k)
+      if (p_(k, k) == 0) p_(k, k) = options_.bias_sigma_m * options_.bias_sigma_m;
 }
 
 void RangeTracker::remember(const Pending& r) {
@@ -129,7 +148,7 @@ RangeUpdate RangeTracker::apply(const Pending& r) {
   if (options_.known_height) position.z() = *options_.known_height;
   const Eigen::Vector3d delta = position - r.reference;
   const double distance = std::max(delta.norm(), 1e-6);
-  const bool biased = options_.estimate_bias && r.anchor >= 0;
+  const bool biased = has_bias_ && r.anchor >= 0;
   const int n = static_cast<int>(x.size());
   Eigen::RowVectorXd h = Eigen::RowVectorXd::Zero(n);
   h.head(d) = (delta / distance).head(d).transpose();
@@ -222,7 +241,7 @@ RangeUpdate RangeTracker::collect(const Pending& r) {
   const int d = dims();
   std::vector<RangeToAnchor> ranges;
   for (const auto& [anchor, q] : latest) {
-    const double bias = options_.estimate_bias ? x_(2 * d + anchor) : 0.0;
+    const double bias = has_bias_ ? x_(2 * d + anchor) : 0.0;
     ranges.push_back({q->reference, q->range_m - bias, q->sigma_m});
   }
   for (const Pending* q : mobile) ranges.push_back({q->reference, q->range_m, q->sigma_m});
@@ -282,7 +301,7 @@ RangeTrackState RangeTracker::state_from(const Snapshot& from, std::int64_t t_ns
 
 std::vector<double> RangeTracker::biases() const {
   std::vector<double> out(anchors_.size(), 0.0);
-  if (options_.estimate_bias)
+  if (has_bias_)
     for (std::size_t k = 0; k < anchors_.size(); ++k) out[k] = x_(2 * dims() + static_cast<int>(k));
   return out;
 }

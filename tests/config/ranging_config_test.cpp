@@ -44,7 +44,9 @@ TEST_F(RangingConfig, OffWithoutTheSectionAndItsDefaultsWithIt) {
   EXPECT_TRUE(t.track);
   EXPECT_DOUBLE_EQ(t.track_options.process_noise, 2.0);
   EXPECT_DOUBLE_EQ(t.track_options.gate_sigmas, 0.0);
-  EXPECT_FALSE(t.track_options.estimate_bias);
+  EXPECT_EQ(t.track_options.bias_learning, RangeTrackerOptions::BiasLearning::kOff);
+  EXPECT_EQ(parse_text(with("  track: {learn_bias: true}\n")).ranging.track_options.bias_learning,
+            RangeTrackerOptions::BiasLearning::kOn);
 }
 
 TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
@@ -67,6 +69,7 @@ TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
   expect_refused(with("  track: {gate: -1}\n"), {"ranging.track.gate"});
   expect_refused(with("  track: {learn_biases: true}\n"), {"ranging.track.learn_biases", "unknown key"});
   expect_refused(with("  track: maybe\n"), {"ranging.track"});
+  expect_refused(with("  track: {learn_bias: often}\n"), {"ranging.track.learn_bias", "auto, true or false"});
   expect_refused(with("  ultrasound: {assumed_speed: 340}\n"), {"ranging.ultrasound.temperature", "required"});
   expect_refused(with("  ultrasound: {temperature: 95}\n"), {"ranging.ultrasound.temperature", "[-40, 60]"});
   expect_refused(with("  ultrasound: {temperature: 20, assumed_speed: 34.3}\n"),

@@ -118,8 +118,9 @@ TEST(RangeTracker, FollowsACircleFromRangesTakenOneAtATime) {
 TEST(RangeTracker, LearnsTheBiasOfAnAnchorThatReadsLong) {
   RangeTrackerOptions options;
   options.known_height = 0.3;
+  options.bias_learning = RangeTrackerOptions::BiasLearning::kOn;  // 4 anchors: kAuto would wait for the cameras
   const CircleRun learnt = run_circle(options, 0.02, 0.10, 0.0, 2);
-  options.estimate_bias = false;
+  options.bias_learning = RangeTrackerOptions::BiasLearning::kOff;
   const CircleRun ignored = run_circle(options, 0.02, 0.10, 0.0, 2);
   std::printf(
       "anchor 2 reads 10 cm long: bias learnt %.1f mm (others %.1f %.1f %.1f); p95 2-D %.1f mm, %.1f mm "

@@ -41,6 +41,7 @@ struct RangeTrackSummary {
   bool started = false;
   std::uint64_t restarts = 0;
   std::uint64_t replayed = 0;                ///< late ranges applied in their place
+  bool learning_bias = false;                ///< its anchor biases are being learnt (ranging.track.learn_bias)
   std::map<std::uint32_t, double> biases_m;  ///< learnt per anchor, beyond the configured bias
 };
 

@@ -29,13 +29,16 @@ struct RangeTrackerOptions {
   /// A range whose innovation exceeds this many of its predicted sigmas is left out (counted);
   /// 0 = every range is used.
   double gate_sigmas = 4.0;
-  /// Learn each fixed anchor's range bias (prior 1-sigma bias_sigma_m, drifting by
-  /// bias_drift m/sqrt(s)). Mobile references (other robots) carry no bias state. The prior is
-  /// what a module keeps after its antenna delay is calibrated (a few cm); a larger one learns
-  /// large biases sooner but, until the tag has moved enough to tell bias from position, widens
-  /// every position by about that much (measured: 10 Hz firings of 1 cm ranges on a circle,
-  /// p95 14 mm without bias states, 23 mm with a 3 cm prior, 32 mm with 10 cm).
-  bool estimate_bias = true;
+  /// Each fixed anchor's range bias as a state (prior 1-sigma bias_sigma_m, drifting by
+  /// bias_drift m/sqrt(s)); mobile references (other robots) carry none. From ranges alone a
+  /// bias is only told apart from the tag's position by geometry that changes as the tag moves
+  /// among many anchors: with 4 anchors and a small loop it is not (measured: 10 Hz firings of
+  /// 1 cm ranges on a 0.45 m circle, 60 s: learnt biases wander +-1 cm, p95 32 mm against 19 mm
+  /// without them). kAuto learns them where that is well posed: with >= 3 anchors more than
+  /// the unknowns (5 at a known height, 6 in 3-D), or once the tag's position is given another
+  /// way (add_position: the cameras). Until then the biases stay at 0.
+  enum class BiasLearning { kOff, kOn, kAuto };
+  BiasLearning bias_learning = BiasLearning::kAuto;
   double bias_sigma_m = 0.03;
   double bias_drift = 0.001;
   /// The tag's known height (a ground robot): the filter follows x, y only.
@@ -77,7 +80,7 @@ struct RangeTrackState {
 class RangeTracker {
  public:
   /// `anchors`: the fixed references this tag may range to, by index (a bias state each when
-  /// estimate_bias).
+  /// bias_learning is not kOff).
   RangeTracker(std::vector<Eigen::Vector3d> anchors, RangeTrackerOptions options);
 
   /// A range to fixed anchor `anchor` (an index into the constructor's list) measured at t_ns.
@@ -100,7 +103,7 @@ class RangeTracker {
   std::optional<RangeTrackState> predict(std::int64_t t_ns) const;
   /// The state at t_ns from the ranges up to t_ns (within the reorder window; later: predict).
   std::optional<RangeTrackState> state_at(std::int64_t t_ns) const;
-  /// Each fixed anchor's estimated bias (m; zeros without estimate_bias).
+  /// Each fixed anchor's estimated bias (m; zeros while not learnt).
   std::vector<double> biases() const;
 
   std::uint64_t accepted() const { return accepted_; }
@@ -108,6 +111,7 @@ class RangeTracker {
   std::uint64_t restarts() const { return restarts_; }
   std::uint64_t replayed() const { return replayed_; }    ///< late ranges applied in their place
   std::uint64_t positions() const { return positions_; }  ///< add_position updates used
+  bool learning_bias() const { return has_bias_ && !bias_locked_; }
 
  private:
   struct Pending {
@@ -139,10 +143,13 @@ class RangeTracker {
   void remember(const Pending& range);
   RangeTrackState state_from(const Snapshot& from, std::int64_t t_ns) const;
   int dims() const { return options_.known_height ? 2 : 3; }
+  void unlock_bias();
 
   std::vector<Eigen::Vector3d> anchors_;
   RangeTrackerOptions options_;
   bool started_ = false;
+  bool has_bias_ = false;     // bias states exist (bias_learning != kOff)
+  bool bias_locked_ = false;  // kAuto, not yet well posed: the biases' variance held at 0
   std::int64_t t_ns_ = 0;
   Eigen::VectorXd x_;  // position (dims), velocity (dims), a bias per anchor when estimated
   Eigen::MatrixXd p_;
