@@ -21,6 +21,7 @@ namespace cmd_sim_ranges {  // named, not anonymous: unique in a unity build
 struct Args {
   std::string scene, out, truth, anchors, send, psk;
   double rate = 10.0, seconds = 10.0, start = 0.0;
+  std::int64_t epoch = -1;
   unsigned seed = 1;
   std::vector<int> tags;
   TransportFaults faults;
@@ -43,6 +44,7 @@ SendPlan send_plan(const Args& a) {
   plan.rate_hz = a.rate;
   plan.seconds = a.seconds;
   plan.scene_start_s = a.start;
+  plan.scene_epoch_mono_ns = a.epoch;
   plan.seed = a.seed;
   plan.tags = a.tags;
   plan.faults = a.faults;
@@ -131,6 +133,9 @@ std::function<int()> setup(CLI::App& sub) {
                  "HOST:PORT: fire in real time to ipsd's range input for --seconds of wall time, instead of --out");
   sub.add_option("--psk", a->psk, "--send: the range input's pre-shared key (ranging.psk)");
   sub.add_option("--start", a->start, "--send: the scene time of the first firing (s)")->capture_default_str();
+  sub.add_option("--scene-epoch", a->epoch,
+                 "--send: CLOCK_MONOTONIC ns of scene time 0, to fire in step with ipsd's synthetic cameras (its "
+                 "status' synthetic_epoch_mono_ns)");
   sub.add_option("--delay", a->faults.max_delay_s, "--send: hold each datagram back by up to this many seconds")
       ->capture_default_str();
   sub.add_option("--burst", a->faults.burst_s, "--send: release datagrams only at the end of slots this long (s)")

@@ -76,7 +76,8 @@ int send_ranges(const ips::sim::Scene& scene, const SendPlan& plan) {
     if (fire_mono >= end) break;
     sleep_until_mono(fire_mono);
     const std::int64_t fire_real = ips::realtime_ns();
-    const double t = plan.scene_start_s + 1e-9 * static_cast<double>(fire_mono - start);
+    const double t = plan.scene_epoch_mono_ns >= 0 ? 1e-9 * static_cast<double>(fire_mono - plan.scene_epoch_mono_ns)
+                                                   : plan.scene_start_s + 1e-9 * static_cast<double>(fire_mono - start);
     for (std::size_t i = 0; i < scene.tags.size(); ++i) {
       const ips::sim::SceneTag& tag = scene.tags[i];
       if (!plan.tags.empty() && std::find(plan.tags.begin(), plan.tags.end(), tag.id) == plan.tags.end()) continue;

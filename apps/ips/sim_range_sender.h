@@ -27,6 +27,9 @@ struct SendPlan {
   double rate_hz = 10;
   double seconds = 10;
   double scene_start_s = 0;  ///< scene time at the first firing
+  /// >= 0: scene time is (CLOCK_MONOTONIC - this) / 1e9 instead, ipsd's synthetic cameras' clock
+  /// (its status' synthetic_epoch_mono_ns): ranges and frames then show the same scene instant.
+  std::int64_t scene_epoch_mono_ns = -1;
   unsigned seed = 1;
   std::vector<int> tags;  ///< empty = all
   TransportFaults faults;

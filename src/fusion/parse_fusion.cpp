@@ -31,6 +31,8 @@ FusionConfig parse_fusion(const YAML::Node& n, const std::string& file) {
   // filter that carries an object through where no camera sees it.
   f.get_number("camera_sigma", c.camera_sigma_m, 0.0, true);
   f.get_number("out_of_view_process_noise", c.between_cameras_process_noise, 0.0, true);
+  f.get_number("camera_hold", c.camera_hold_s, 0.0, false);
+  if (c.camera_hold_s > 10) f.fail(f.raw()["camera_hold"], "fusion.camera_hold", "must be <= 10 s");
   if (f.has("kalman")) {
     MapReader k(f.node("kalman"), "fusion.kalman", file);
     k.get("enabled", c.kalman);

@@ -342,6 +342,7 @@ void TrackFusion::add(const FrameObservations& batch, const FusionMethod& method
     q.insert(pos, o);
     track.newest_ns = std::max(track.newest_ns, o.t_mono_ns);
     track.other_sources |= o.source != ObservationSource::kCamera;
+    if (o.source == ObservationSource::kCamera) track.camera_newest_ns = std::max(track.camera_newest_ns, o.t_mono_ns);
     prune(track);
     seen.push_back(o.id);
   }
@@ -351,6 +352,14 @@ void TrackFusion::add(const FrameObservations& batch, const FusionMethod& method
     Track& track = tracks_[id];
     if (track.published && t < track.published_ns) {  // late: merged, not published
       ++counters_.late;
+      continue;
+    }
+    const bool camera_saw_it_now =
+        std::any_of(batch.observations.begin(), batch.observations.end(),
+                    [&](const WorldObservation& o) { return o.id == id && o.source == ObservationSource::kCamera; });
+    if (!camera_saw_it_now && track.camera_newest_ns != INT64_MIN &&
+        track.camera_newest_ns >= t - to_ns(options_.camera_hold_s)) {
+      ++counters_.held_for_cameras;  // the cameras' next record carries it
       continue;
     }
     auto f = state_at(id, track, t, batch.t_real_ns, to_ns(options_.window_s), method);

@@ -95,6 +95,7 @@ fusion:
   fixed_marker_warn: 0.03
   camera_sigma: 0.002
   out_of_view_process_noise: 0.1
+  camera_hold: 0.5
   max_wait: 0.05
   kalman: {enabled: true, process_noise: 0.5, measurement_noise: 0.0001, reset_after: 0.5, initial_velocity_std: 1.0}
 outputs:

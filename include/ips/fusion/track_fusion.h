@@ -49,6 +49,14 @@ struct TrackFusionOptions : FusionTimeWindows {
   /// smooths more but claims more certainty than a turning robot allows at the hand-back.
   /// Config: fusion.out_of_view_process_noise.
   double between_cameras_process_noise = 0.1;
+  /// While a camera has placed an object within this long (s) before another source's
+  /// observation of it, that observation is merged (it weighs in the cameras' next records)
+  /// but publishes no record of its own: a camera frame reaches fusion later than a range
+  /// firing of the same instant (capture, decode, detection take tens of ms), so publishing
+  /// the ranges first would leave every camera record "late" and unpublished. Where the
+  /// cameras lose the object, the other sources take over this long after their last sight.
+  /// Config: fusion.camera_hold.
+  double camera_hold_s = 0.5;
   bool kalman = false;  ///< constant-velocity Kalman filter per object on the output
   KalmanOptions kalman_options;
 
@@ -58,6 +66,9 @@ struct TrackFusionOptions : FusionTimeWindows {
 struct TrackFusionCounters {
   std::uint64_t late = 0;     ///< observations merged but not published (older than the last output)
   std::uint64_t too_old = 0;  ///< observations dropped: older than the history span
+  /// Other sources' observations merged without a record of their own: a camera had the
+  /// object within camera_hold_s.
+  std::uint64_t held_for_cameras = 0;
 };
 
 class TrackFusion {
@@ -101,6 +112,7 @@ class TrackFusion {
     /// A source other than the cameras has seen the object: only then does between_cameras_
     /// follow its camera records (a camera-only object never needs the hand-over).
     bool other_sources = false;
+    std::int64_t camera_newest_ns = INT64_MIN;  ///< the newest camera observation's capture time
   };
   /// The estimates of every stream at time t, each moved to t by its own velocity; the
   /// streams' velocities are summed and counted, the cameras' apart from the other sources'.
