@@ -103,7 +103,7 @@ void FusionWorker::run() {
   pthread_setname_np(pthread_self(), "fusion");
   std::shared_ptr<const Runtime> rt = runtime_.get();
   ips::TrackFusion fusion(fusion_options(rt->config.fusion));
-  std::uint64_t counted_late = 0, counted_too_old = 0;
+  std::uint64_t counted_late = 0, counted_too_old = 0, counted_held = 0;
   std::int64_t next_tick = 0;  // fixed-rate output: next publish time, CLOCK_MONOTONIC
   std::vector<ips::FusedMarker> states;
   std::optional<ips::BodyTrack> bodies = make_body_track(rt->config);  // docs/bodies.md
@@ -120,7 +120,8 @@ void FusionWorker::run() {
       if (fusion_options(latest->config.fusion) != fusion.options()) {
         stats_.late += fusion.counters().late - counted_late;
         stats_.too_old += fusion.counters().too_old - counted_too_old;
-        counted_late = counted_too_old = 0;
+        stats_.held_for_cameras += fusion.counters().held_for_cameras - counted_held;
+        counted_late = counted_too_old = counted_held = 0;
         ips::TrackFusion fresh(fusion_options(latest->config.fusion));
         fresh.continue_after(fusion);
         fusion = std::move(fresh);
@@ -175,6 +176,8 @@ void FusionWorker::run() {
     stats_.too_old += fusion.counters().too_old - counted_too_old;
     counted_late = fusion.counters().late;
     counted_too_old = fusion.counters().too_old;
+    stats_.held_for_cameras += fusion.counters().held_for_cameras - counted_held;
+    counted_held = fusion.counters().held_for_cameras;
   }
 }
 

@@ -140,10 +140,11 @@ class LatencyWindow {
 struct FusionStats {
   std::atomic<std::uint64_t> updates{0};
   std::atomic<std::int64_t> heartbeat_ns{0};
-  std::atomic<std::int64_t> last_latency_ns{0};  ///< capture -> sendto of the last datagram
-  std::atomic<std::uint64_t> late{0};            ///< observations that arrived after a newer output of their marker
-  std::atomic<std::uint64_t> too_old{0};         ///< observations dropped: older than fusion.history
-  LatencyWindow latency;                         ///< delivered -> sendto and capture -> sendto
+  std::atomic<std::int64_t> last_latency_ns{0};    ///< capture -> sendto of the last datagram
+  std::atomic<std::uint64_t> late{0};              ///< observations that arrived after a newer output of their marker
+  std::atomic<std::uint64_t> too_old{0};           ///< observations dropped: older than fusion.history
+  std::atomic<std::uint64_t> held_for_cameras{0};  ///< range fixes merged, not published: a camera had the marker
+  LatencyWindow latency;                           ///< delivered -> sendto and capture -> sendto
   std::mutex outputs_mutex;
   std::vector<ips::OutputStats> outputs;
 };

@@ -204,22 +204,28 @@ RangeUpdate RangeTracker::update_position(const Pending& r, const Eigen::VectorX
 }
 
 RangeUpdate RangeTracker::start_at(const Pending& r) {
-  // The track starts where the other source saw the tag (the biases learnt so far kept).
+  // The track starts where the other source saw the tag.
+  const int d = dims();
+  start(r.t_ns, r.reference, r.covariance.topLeftCorner(d, d) + 1e-6 * Eigen::MatrixXd::Identity(d, d));
+  if (!replaying_) ++positions_;
+  return RangeUpdate::kStarted;
+}
+
+void RangeTracker::start(std::int64_t t_ns, const Eigen::Vector3d& position, const Eigen::MatrixXd& covariance) {
+  // Position as given, the velocity unknown (1 m/s per axis); the biases learnt so far kept.
   const int d = dims();
   x_.head(2 * d).setZero();
-  x_.head(d) = r.reference.head(d);
+  x_.head(d) = position.head(d);
   p_.topRows(2 * d).setZero();
   p_.leftCols(2 * d).setZero();
-  p_.topLeftCorner(d, d) = r.covariance.topLeftCorner(d, d) + 1e-6 * Eigen::MatrixXd::Identity(d, d);
+  p_.topLeftCorner(d, d) = covariance;
   p_.block(d, d, d, d) = Eigen::MatrixXd::Identity(d, d);
-  t_ns_ = r.t_ns;
+  t_ns_ = t_ns;
   started_ = true;
   rejections_in_a_row_ = 0;
   pending_.clear();
   history_.clear();
   base_ = snapshot();
-  if (!replaying_) ++positions_;
-  return RangeUpdate::kStarted;
 }
 
 RangeUpdate RangeTracker::collect(const Pending& r) {
@@ -251,20 +257,8 @@ RangeUpdate RangeTracker::collect(const Pending& r) {
   solve.z_range = options_.z_range;
   const RangeFix fix = fix_least_squares(ranges, solve);
   if (!fix.ok) return RangeUpdate::kInitialising;
-  // Position from the fix (its covariance, inflated for the motion within the window), the
-  // velocity unknown (1 m/s per axis); the biases learnt so far are kept.
-  x_.head(2 * d).setZero();
-  x_.head(d) = fix.position.head(d);
-  p_.topRows(2 * d).setZero();
-  p_.leftCols(2 * d).setZero();
-  p_.topLeftCorner(d, d) = 4.0 * fix.covariance.topLeftCorner(d, d) + 1e-4 * Eigen::MatrixXd::Identity(d, d);
-  p_.block(d, d, d, d) = Eigen::MatrixXd::Identity(d, d);
-  t_ns_ = r.t_ns;
-  started_ = true;
-  rejections_in_a_row_ = 0;
-  pending_.clear();
-  history_.clear();
-  base_ = snapshot();
+  // The fix's covariance inflated for the motion within the window.
+  start(r.t_ns, fix.position, 4.0 * fix.covariance.topLeftCorner(d, d) + 1e-4 * Eigen::MatrixXd::Identity(d, d));
   return RangeUpdate::kStarted;
 }
 

@@ -84,11 +84,10 @@ TEST(IpsdHandover, ARobotLeavingTheCamerasIsCarriedByItsRangesAndHandedBack) {
 
   // One whole out-and-back (37 s) plus the start: the tag fires at 10 Hz in the camera's time.
   const fs::path sender_log = dir / "sender.log";
-  const pid_t sender =
-      test::spawn({test::bin("ips"), "sim", "ranges", "--scene", (dir / "scene.yaml").string(), "--send",
-                   "127.0.0.1:" + std::to_string(port), "--scene-epoch", std::to_string(epoch), "--seconds", "40",
-                   "--rate", "10", "--seed", "3"},
-                  sender_log);
+  const pid_t sender = test::spawn({test::bin("ips"), "sim", "ranges", "--scene", (dir / "scene.yaml").string(),
+                                    "--send", "127.0.0.1:" + std::to_string(port), "--scene-epoch",
+                                    std::to_string(epoch), "--seconds", "40", "--rate", "10", "--seed", "3"},
+                                   sender_log);
   std::vector<Record> records;
   std::optional<int> sender_rc;
   for (std::int64_t until = 0; until == 0 || monotonic_ns() < until;) {
@@ -130,11 +129,12 @@ TEST(IpsdHandover, ARobotLeavingTheCamerasIsCarriedByItsRangesAndHandedBack) {
       handover.push_back((r.p - records[i - 1].p - moved).head<2>().norm());
     }
   }
-  std::printf("[ handover ] %zu records: %zu by the camera, 2-D p95 %.1f mm; %zu by the ranges alone (longest "
-              "stretch %.1f s), p95 %.1f mm; %zu hand-overs, largest step beyond the motion %.1f mm; ranging %s\n",
-              records.size(), inside.size(), 1e3 * p95(inside), outside.size(), longest_out, 1e3 * p95(outside),
-              handover.size(), handover.empty() ? 0.0 : 1e3 * *std::max_element(handover.begin(), handover.end()),
-              status["ranging"].dump().c_str());
+  std::printf(
+      "[ handover ] %zu records: %zu by the camera, 2-D p95 %.1f mm; %zu by the ranges alone (longest "
+      "stretch %.1f s), p95 %.1f mm; %zu hand-overs, largest step beyond the motion %.1f mm; ranging %s\n",
+      records.size(), inside.size(), 1e3 * p95(inside), outside.size(), longest_out, 1e3 * p95(outside),
+      handover.size(), handover.empty() ? 0.0 : 1e3 * *std::max_element(handover.begin(), handover.end()),
+      status["ranging"].dump().c_str());
   ASSERT_GT(inside.size(), 20u) << test::read_file(log);
   EXPECT_GT(longest_out, 15.0) << "the robot must leave the camera's view for a while";
   EXPECT_LT(p95(inside), 0.02) << "camera accuracy where the camera sees it";
@@ -142,6 +142,8 @@ TEST(IpsdHandover, ARobotLeavingTheCamerasIsCarriedByItsRangesAndHandedBack) {
   // the hand-overs 51.4 mm at most (docs/ranging.md).
   EXPECT_LT(p95(outside), 0.10);
   ASSERT_GE(handover.size(), 2u) << "out of view and back";
+  EXPECT_GT(status["fusion_held_for_cameras"].get<int>(), 100)
+      << "the fixes under the camera were merged into its records";
   for (double step : handover) EXPECT_LT(step, 3 * 0.05) << "a hand-over jumped beyond 3 sigma of a range";
   fs::remove_all(dir);
 }

@@ -137,6 +137,7 @@ class RangeTracker {
   RangeUpdate collect(const Pending& range);
   RangeUpdate update_position(const Pending& position, const Eigen::VectorXd& x, const Eigen::MatrixXd& p);
   RangeUpdate start_at(const Pending& position);
+  void start(std::int64_t t_ns, const Eigen::Vector3d& position, const Eigen::MatrixXd& covariance);
   void propagate(std::int64_t from_ns, std::int64_t to_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const;
   Snapshot snapshot() const;
   void restore(const Snapshot& s);
