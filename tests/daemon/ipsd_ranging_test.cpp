@@ -328,7 +328,12 @@ TEST_F(IpsdRangingTest, ARobotTheCamerasSeeIsAnAnchorForOneTheyDoNot) {
   // Robot 1's published state must be within 500 ms of the firing: all 40 were on a quiet
   // machine, 25 beside two busy loops (starved cameras publish late); a quarter is asked.
   EXPECT_GE(r["mobile_references"].get<int>(), firings / 4) << r.dump();
-  EXPECT_EQ(r["fixes"].get<int>(), r["mobile_references"].get<int>()) << "no fix without robot 1";
+  // The range track (the default) starts once, from a fix that needs robot 1 (three anchors
+  // cannot fix the beacon in 3-D); after that a firing whose robot-1 state is too old (a busy
+  // machine) still moves it with the three anchors' ranges, so fixes may exceed the firings
+  // that used robot 1.
+  EXPECT_EQ(r["ranges"].value("started", 0), 1) << r.dump();
+  EXPECT_GE(r["fixes"].get<int>(), r["mobile_references"].get<int>() - 4) << r.dump();
   EXPECT_LE(p95, 0.05);
 }
 
