@@ -130,6 +130,13 @@ int run_status(const StatusOptions& o) {
           std::printf(" %s %llu", what.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
       std::printf("; camera positions used %llu\n", count(r, "camera_references"));
     }
+    if (const auto odometry = r.value("odometry", nlohmann::json::object()); !odometry.empty()) {
+      std::printf("    odometry:");
+      for (const auto& [what, n] : odometry.items())
+        if (n.is_number_unsigned())
+          std::printf(" %s %llu", what.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
+      std::printf("\n");
+    }
     const auto tracks = r.value("tracks", nlohmann::json::array());
     for (const auto& t : tracks) {
       if (!t.is_object()) continue;

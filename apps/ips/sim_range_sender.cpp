@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -53,6 +54,8 @@ int send_ranges(const ips::sim::Scene& scene, const SendPlan& plan) {
   const std::int64_t end = start + static_cast<std::int64_t>(std::llround(plan.seconds * 1e9));
   std::vector<Queued> queue;  // by due time
   std::vector<std::uint32_t> counters(scene.tags.size(), 0);
+  std::vector<std::optional<double>> last_fired(scene.tags.size());  // scene time of each tag's previous firing
+  std::normal_distribution<double> normal(0.0, 1.0);
   std::uint64_t firings = 0, sent = 0, lost = 0, duplicated = 0, send_errors = 0;
   std::int64_t next_progress = start + 5'000'000'000;
   const auto flush = [&](std::int64_t now) {
@@ -90,6 +93,12 @@ int send_ranges(const ips::sim::Scene& scene, const SendPlan& plan) {
       f.firing_realtime_ns = fire_real;
       for (const auto& r : measured)
         f.entries.push_back({static_cast<std::uint32_t>(r.reference), r.is_tag, r.range, r.sigma});
+      if (tag.odometry && last_fired[i]) {  // wheels: the distance since this tag's previous firing
+        const double travelled = scene.tag_travelled(i, *last_fired[i], t);
+        f.odometry_m = std::max(0.0, travelled + *tag.odometry * normal(rng));
+        f.odometry_sigma_m = *tag.odometry;
+      }
+      last_fired[i] = t;
       if (plan.faults.unknown_anchor >= 0)
         f.entries.push_back({static_cast<std::uint32_t>(plan.faults.unknown_anchor), false, 2.0, 0.0});
       truth << "tag" << tag.id << '_' << f.firing << ',' << tag.id << ',' << t << ',' << here->x() << ',' << here->y()

@@ -71,6 +71,7 @@ nlohmann::json RangeLink::status() const {
           {"track", config_.track},
           {"camera_references", fixes.camera_references},
           {"ranges", ranges},
+          {"odometry", fixes.odometry},
           {"tracks", tracks},
           {"fixes_dropped_while_restarting", detached_}};
 }

@@ -1,5 +1,6 @@
 #include "ips/input/range_fixer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <vector>
@@ -68,16 +69,53 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
     return std::nullopt;
   }
   const std::vector<Corrected> ranges = correct(admitted);
-  return config_.track ? track(ranges, admitted, tag->second, t_real_ns)
-                       : solve(ranges, admitted, tag->second, t_real_ns);
+  auto out =
+      config_.track ? track(ranges, admitted, tag->second, t_real_ns) : solve(ranges, admitted, tag->second, t_real_ns);
+  remember_firing(admitted, out);
+  return out;
+}
+
+const RangeFixer::PastFiring* RangeFixer::previous_firing(const AdmittedFiring& admitted) const {
+  const auto tag = past_firings_.find(admitted.firing.tag);
+  if (tag == past_firings_.end()) return nullptr;
+  const auto previous = tag->second.find(admitted.firing.firing - 1);  // wraps with the counter
+  if (previous == tag->second.end() || previous->second.t_ns >= admitted.t_mono_ns) return nullptr;
+  return &previous->second;
+}
+
+void RangeFixer::remember_firing(const AdmittedFiring& admitted, const std::optional<WorldObservation>& fix) {
+  auto& firings = past_firings_[admitted.firing.tag];
+  PastFiring& past = firings[admitted.firing.firing];
+  past.t_ns = admitted.t_mono_ns;
+  if (fix) past.fix = MobileReference{fix->p_world, Eigen::Vector3d::Zero(), fix->covariance, fix->t_mono_ns, false};
+  // A firing's odometry refers to the one just before it: 2 s of them is plenty, whatever the
+  // rate or the arrival order.
+  std::erase_if(firings, [&](const auto& f) { return f.second.t_ns < admitted.t_mono_ns - 2'000'000'000; });
+}
+
+double RangeFixer::odometry_sigma(const RangeFiring& firing) {
+  // A sender that states no sigma: 1 mm, about what wheel encoders give over one firing.
+  return firing.odometry_sigma_m > 0 ? firing.odometry_sigma_m : 1e-3;
 }
 
 std::optional<WorldObservation> RangeFixer::solve(const std::vector<Corrected>& corrected,
                                                   const AdmittedFiring& admitted, int marker, std::int64_t t_real_ns) {
   std::vector<RangeToAnchor> ranges;
-  ranges.reserve(corrected.size());
+  ranges.reserve(corrected.size() + 1);
   for (const Corrected& c : corrected)
     ranges.push_back({c.reference, c.range_m, std::hypot(c.sigma_m, c.reference_sigma_m)});
+  if (const RangeFiring& f = admitted.firing; f.odometry_m) {
+    // The distance travelled is a range to where the previous firing put the tag.
+    const PastFiring* previous = previous_firing(admitted);
+    if (previous && previous->fix) {
+      const double previous_sigma = std::sqrt(previous->fix->covariance.trace() / 3.0);
+      ranges.push_back(
+          {previous->fix->position, std::max(*f.odometry_m, 1e-3), std::hypot(odometry_sigma(f), previous_sigma)});
+      ++counters_.odometry["sphere"];
+    } else {
+      ++counters_.odometry["no_previous"];
+    }
+  }
   RangeSolveOptions options;
   options.known_height = config_.height;
   options.z_range = config_.z_range;
@@ -119,6 +157,16 @@ std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& 
                                    : tracker.add_anchor_range(t, c.anchor, c.range_m, c.sigma_m);
     ++counters_.ranges[range_update_word(u)];
     used = used || u == RangeUpdate::kAccepted || u == RangeUpdate::kStarted;
+  }
+  if (const RangeFiring& f = admitted.firing; f.odometry_m) {
+    // The distance travelled since the previous firing over the time between them: a speed.
+    const PastFiring* previous = previous_firing(admitted);
+    if (previous) {
+      const double dt = 1e-9 * static_cast<double>(t - previous->t_ns);
+      ++counters_.odometry[range_update_word(tracker.add_speed(t, *f.odometry_m / dt, odometry_sigma(f) / dt))];
+    } else {
+      ++counters_.odometry["no_previous"];
+    }
   }
   const auto state = used ? tracker.state_at(t) : std::nullopt;
   if (!state) {

@@ -17,6 +17,7 @@ const char* range_update_word(RangeUpdate update) {
     case RangeUpdate::kRejected: return "rejected";
     case RangeUpdate::kOutOfOrder: return "out_of_order";
     case RangeUpdate::kInvalid: return "invalid";
+    case RangeUpdate::kUnused: return "unused";
   }
   return "invalid";
 }
@@ -81,14 +82,21 @@ RangeUpdate RangeTracker::add_position(std::int64_t t_ns, const Eigen::Vector3d&
   if (!position.allFinite() || !covariance.allFinite() || covariance.diagonal().minCoeff() < 0)
     return RangeUpdate::kInvalid;
   Pending r{t_ns, -1, position, 1.0, 1.0};
-  r.is_position = true;
+  r.kind = Kind::kPosition;
   r.covariance = covariance;
   unlock_bias();
   return add(r);
 }
 
+RangeUpdate RangeTracker::add_speed(std::int64_t t_ns, double speed_mps, double sigma_mps) {
+  Pending r{t_ns, -1, Eigen::Vector3d::Zero(), speed_mps, sigma_mps};
+  r.kind = Kind::kSpeed;
+  return add(r);
+}
+
 RangeUpdate RangeTracker::add(const Pending& r) {
-  if (!std::isfinite(r.range_m) || r.range_m <= 0 || !std::isfinite(r.sigma_m) || r.sigma_m <= 0)
+  const bool value_ok = r.kind == Kind::kSpeed ? r.range_m >= 0 : r.range_m > 0;  // a robot may stand still
+  if (!std::isfinite(r.range_m) || !value_ok || !std::isfinite(r.sigma_m) || r.sigma_m <= 0)
     return RangeUpdate::kInvalid;
   if (!started_ || r.t_ns >= t_ns_) return apply(r);
   // Older than the track: replayed in its place if it is within the reorder window (the state
@@ -131,17 +139,21 @@ void RangeTracker::remember(const Pending& r) {
 }
 
 RangeUpdate RangeTracker::apply(const Pending& r) {
-  if (started_ && 1e-9 * static_cast<double>(r.t_ns - t_ns_) > options_.max_gap_s) {
+  const bool gap = started_ && 1e-9 * static_cast<double>(r.t_ns - t_ns_) > options_.max_gap_s;
+  // A speed says nothing of where the tag is: it neither starts a track nor restarts one.
+  if (r.kind == Kind::kSpeed && (!started_ || gap)) return RangeUpdate::kUnused;
+  if (gap) {
     started_ = false;  // lost for too long: start over from a new fix
     history_.clear();
     if (!replaying_) ++restarts_;
   }
-  if (!started_) return r.is_position ? start_at(r) : collect(r);
+  if (!started_) return r.kind == Kind::kPosition ? start_at(r) : collect(r);
 
   Eigen::VectorXd x = x_;
   Eigen::MatrixXd p = p_;
   propagate(t_ns_, r.t_ns, x, p);
-  if (r.is_position) return update_position(r, x, p);
+  if (r.kind == Kind::kPosition) return update_position(r, x, p);
+  if (r.kind == Kind::kSpeed) return update_speed(r, x, p);
   const int d = dims();
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   position.head(d) = x.head(d);
@@ -150,9 +162,9 @@ RangeUpdate RangeTracker::apply(const Pending& r) {
   const double distance = std::max(delta.norm(), 1e-6);
   const bool biased = has_bias_ && r.anchor >= 0;
   const int n = static_cast<int>(x.size());
-  Eigen::RowVectorXd h = Eigen::RowVectorXd::Zero(n);
-  h.head(d) = (delta / distance).head(d).transpose();
-  if (biased) h(2 * d + r.anchor) = 1.0;
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(1, n);
+  h.leftCols(d) = (delta / distance).head(d).transpose();
+  if (biased) h(0, 2 * d + r.anchor) = 1.0;
   const double predicted = distance + (biased ? x(2 * d + r.anchor) : 0.0);
   const double innovation = r.range_m - predicted;
   const double s = (h * p * h.transpose())(0, 0) + r.sigma_m * r.sigma_m;
@@ -173,14 +185,23 @@ RangeUpdate RangeTracker::apply(const Pending& r) {
     return RangeUpdate::kRejected;
   }
   rejections_in_a_row_ = 0;
-  const Eigen::VectorXd k = p * h.transpose() / s;
-  x_ = x + k * innovation;
-  // Joseph form: stays symmetric and positive definite over hundreds of thousands of updates.
-  const Eigen::MatrixXd i_kh = Eigen::MatrixXd::Identity(n, n) - k * h;
-  p_ = i_kh * p * i_kh.transpose() + (r.sigma_m * r.sigma_m) * k * k.transpose();
+  update_linear(h, Eigen::VectorXd::Constant(1, innovation), Eigen::MatrixXd::Constant(1, 1, r.sigma_m * r.sigma_m), x,
+                p);
   if (!replaying_) ++accepted_;
   remember(r);
   return RangeUpdate::kAccepted;
+}
+
+void RangeTracker::update_linear(const Eigen::MatrixXd& h, const Eigen::VectorXd& innovation, const Eigen::MatrixXd& r,
+                                 const Eigen::VectorXd& x, const Eigen::MatrixXd& p) {
+  const int n = static_cast<int>(x.size());
+  const int m = static_cast<int>(h.rows());
+  const Eigen::MatrixXd s = h * p * h.transpose() + r;
+  const Eigen::MatrixXd k = p * h.transpose() * s.ldlt().solve(Eigen::MatrixXd::Identity(m, m));
+  x_ = x + k * innovation;
+  // Joseph form: stays symmetric and positive definite over hundreds of thousands of updates.
+  const Eigen::MatrixXd i_kh = Eigen::MatrixXd::Identity(n, n) - k * h;
+  p_ = i_kh * p * i_kh.transpose() + k * r * k.transpose();
 }
 
 RangeUpdate RangeTracker::update_position(const Pending& r, const Eigen::VectorXd& x, const Eigen::MatrixXd& p) {
@@ -191,14 +212,49 @@ RangeUpdate RangeTracker::update_position(const Pending& r, const Eigen::VectorX
   // A floor on the reference's variance (0.1 mm): a camera fix is never exact, and a zero would
   // make the update singular at a known height's z.
   const Eigen::MatrixXd r_cov = r.covariance.topLeftCorner(d, d) + 1e-8 * Eigen::MatrixXd::Identity(d, d);
-  const Eigen::MatrixXd s = h * p * h.transpose() + r_cov;
-  const Eigen::MatrixXd k = p * h.transpose() * s.ldlt().solve(Eigen::MatrixXd::Identity(d, d));
   t_ns_ = r.t_ns;
-  x_ = x + k * (r.reference.head(d) - x.head(d));
-  const Eigen::MatrixXd i_kh = Eigen::MatrixXd::Identity(n, n) - k * h;
-  p_ = i_kh * p * i_kh.transpose() + k * r_cov * k.transpose();
+  update_linear(h, r.reference.head(d) - x.head(d), r_cov, x, p);
   rejections_in_a_row_ = 0;
   if (!replaying_) ++positions_;
+  remember(r);
+  return RangeUpdate::kAccepted;
+}
+
+RangeUpdate RangeTracker::update_speed(const Pending& r, const Eigen::VectorXd& x, const Eigen::MatrixXd& p) {
+  const int d = dims();
+  const int n = static_cast<int>(x.size());
+  const Eigen::VectorXd v = x.segment(d, d);
+  const double speed = v.norm();
+  const bool still = r.range_m < 2 * r.sigma_m;
+  if (!still && speed < 1e-3) return RangeUpdate::kUnused;  // moving, but which way is not known
+  Eigen::MatrixXd h;
+  Eigen::VectorXd innovation;
+  Eigen::MatrixXd r_cov;
+  if (still) {  // velocity 0 on every axis; the measured speed itself is part of the doubt
+    h = Eigen::MatrixXd::Zero(d, n);
+    h.block(0, d, d, d).setIdentity();
+    innovation = -v;
+    r_cov = (r.sigma_m * r.sigma_m + r.range_m * r.range_m) * Eigen::MatrixXd::Identity(d, d);
+  } else {  // |v| along the track's own direction of travel
+    h = Eigen::MatrixXd::Zero(1, n);
+    h.block(0, d, 1, d) = (v / speed).transpose();
+    innovation = Eigen::VectorXd::Constant(1, r.range_m - speed);
+    r_cov = Eigen::MatrixXd::Constant(1, 1, r.sigma_m * r.sigma_m);
+  }
+  t_ns_ = r.t_ns;
+  x_ = x;
+  p_ = p;
+  const Eigen::MatrixXd s = h * p * h.transpose() + r_cov;
+  const double mahalanobis2 = innovation.dot(s.ldlt().solve(innovation));
+  const double gate = options_.gate_sigmas;
+  if (gate > 0 && mahalanobis2 > gate * gate * static_cast<double>(innovation.size())) {
+    // Wheels that slip, a robot carried: left out, but not counted against the ranges.
+    if (!replaying_) ++rejected_;
+    remember(r);
+    return RangeUpdate::kRejected;
+  }
+  update_linear(h, innovation, r_cov, x, p);
+  if (!replaying_) ++speeds_;
   remember(r);
   return RangeUpdate::kAccepted;
 }

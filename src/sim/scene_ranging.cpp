@@ -78,7 +78,7 @@ void read_ranging(const SceneReader& r, const YAML::Node& root, Scene& scene) {
     for (std::size_t i = 0; i < ts.size(); ++i) {
       const YAML::Node t = ts[i];
       const std::string p = "tags[" + std::to_string(i) + "].";
-      r.only_keys(t, p, {"id", "marker", "height", "range_tags", "sigma", "max_range"});
+      r.only_keys(t, p, {"id", "marker", "height", "range_tags", "sigma", "max_range", "odometry"});
       SceneTag tag;
       if (!t["id"]) r.fail(t, p + "id", "missing");
       tag.id = static_cast<int>(r.integer(t, p, "id", 0, 0, 2147483647));
@@ -99,6 +99,10 @@ void read_ranging(const SceneReader& r, const YAML::Node& root, Scene& scene) {
       if (!(tag.sigma >= 0 && tag.sigma <= 10)) r.fail(t["sigma"], p + "sigma", "must be 0..10 m");
       tag.max_range = r.number(t, p, "max_range", tag.max_range);
       if (!(tag.max_range > 0)) r.fail(t["max_range"], p + "max_range", "must be > 0 m");
+      if (t["odometry"]) {
+        tag.odometry = r.number(t, p, "odometry", 0.0);
+        if (!(*tag.odometry > 0 && *tag.odometry <= 1)) r.fail(t["odometry"], p + "odometry", "must be > 0 and <= 1 m");
+      }
       scene.tags.push_back(tag);
     }
   }
@@ -109,6 +113,19 @@ std::optional<Eigen::Vector3d> Scene::tag_position(std::size_t index, double t) 
   const MarkerPose pose = marker_pose(tag.marker, t);
   if (!pose.present) return std::nullopt;
   return Eigen::Vector3d(pose.x, pose.y, pose.z + tag.height);
+}
+
+double Scene::tag_travelled(std::size_t index, double t0, double t1) const {
+  // The path's length, summed over 1 ms steps (the trajectories are smooth at that scale).
+  const int steps = std::max(1, static_cast<int>(std::ceil((t1 - t0) / 1e-3)));
+  double length = 0;
+  std::optional<Eigen::Vector3d> last = tag_position(index, t0);
+  for (int k = 1; k <= steps; ++k) {
+    const auto here = tag_position(index, t0 + (t1 - t0) * k / steps);
+    if (last && here) length += (*here - *last).norm();
+    last = here;
+  }
+  return length;
 }
 
 std::vector<SimRange> Scene::fire_tag(std::size_t index, double t, std::mt19937_64& rng) const {

@@ -1,7 +1,8 @@
 // ipsd fed by the synthetic ranging source (`ips sim ranges --send`, docs/simulator.md): a
 // scene's tag on a circle fires real datagrams at the daemon through the faulty transport the
 // sender is asked for; every record is checked against the truth the sender wrote for its
-// firing (the same firing time), and the faults against the daemon's counters.
+// firing (the same firing time), and the faults against the daemon's counters. The tag's wheels
+// say how far it travelled since its previous firing (1 mm 1-sigma): a speed for its track.
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -32,7 +33,7 @@ anchors:
   - {id: 3, position: [4.5, 3.5, 2.6], sigma: 0.01}
   - {id: 4, position: [0.0, 3.5, 1.6], sigma: 0.01}
 tags:
-  - {id: 7, marker: 20}
+  - {id: 7, marker: 20, odometry: 0.001}
 )";
 
 TEST(IpsdRangingSim, TheSyntheticRangingSourceThroughAFaultyTransport) {
@@ -159,13 +160,17 @@ TEST(IpsdRangingSim, TheSyntheticRangingSourceThroughAFaultyTransport) {
       "2-D p50 %.1f mm p95 %.1f mm max %.1f mm; %s\n",
       firings, sent, lost, duplicated, errors.size(), 1e3 * errors[errors.size() / 2], 1e3 * p95, 1e3 * errors.back(),
       r.dump().c_str());
-  // Measured 2026-11-27 (8 s): p50 7.7 mm, p95 18.1 mm (docs/ranging.md).
+  // Measured 2026-11-27 (8 s, with odometry): p50 7.3 mm, p95 17.7 mm (docs/ranging.md).
   EXPECT_LE(p95, 0.03);
   EXPECT_EQ(r["datagrams"].get<unsigned>(), sent);
   EXPECT_EQ(r["refused"]["duplicate"].get<unsigned>(), duplicated);
   EXPECT_EQ(r["refused"]["key"].get<unsigned>(), 0u) << "the sender signs with the daemon's key";
   EXPECT_EQ(r["accepted"].get<unsigned>() + r["refused"]["too_old"].get<unsigned>(), firings - lost);
   EXPECT_EQ(r["unknown_references"].get<unsigned>(), sent);
+  // Odometry is used where the tag's previous firing arrived first; after a lost or a later
+  // one it spans an unknown time and is not.
+  EXPECT_GT(r["odometry"].value("accepted", 0u), firings / 4u) << r.dump();
+  EXPECT_GT(r["odometry"].value("no_previous", 0u), 0u) << r.dump();
   fs::remove_all(dir);
 }
 

@@ -55,8 +55,10 @@ struct CircleRun {
   double mean_nees = 0;  // mean normalised squared 2-D error: 2 when the covariance is right
 };
 
+// odometry_sigma > 0: every fourth range (a firing of 40 ms) also gives the distance travelled
+// since the previous one with this 1-sigma, as a speed.
 CircleRun run_circle(const RangeTrackerOptions& options, double sigma, double anchor2_bias, double nlos_fraction,
-                     unsigned seed) {
+                     unsigned seed, double odometry_sigma = 0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
@@ -75,6 +77,13 @@ CircleRun run_circle(const RangeTrackerOptions& options, double sigma, double an
     if (a == 2) range += anchor2_bias;
     if (u01(rng) < nlos_fraction) range += 0.3 + 0.5 * u01(rng);  // a reflection: always long
     tracker.add_anchor_range(static_cast<std::int64_t>(i) * 10 * kMs, a, range, sigma);
+    if (odometry_sigma > 0 && a == kAnchors.size() - 1) {
+      // Noise drawn from its own stream: the ranges stay those of the run without odometry.
+      static std::mt19937 odometry_rng;
+      if (i == 3) odometry_rng.seed(seed + 100);
+      const double travelled = 0.4 * 0.04 + std::normal_distribution<double>(0.0, odometry_sigma)(odometry_rng);
+      tracker.add_speed(static_cast<std::int64_t>(i) * 10 * kMs, travelled / 0.04, odometry_sigma / 0.04);
+    }
     latest[a] = {kAnchors[a], range, sigma};
     const auto s = tracker.state();
     if (t > 5.0 && s) {
@@ -106,7 +115,7 @@ TEST(RangeTracker, FollowsACircleFromRangesTakenOneAtATime) {
       "together: p95 %.1f mm\n",
       1e3 * p95(run.errors_2d), run.mean_nees, static_cast<unsigned long long>(run.rejected),
       1e3 * p95(run.snapshot_2d));
-  // The filter uses every range, not four: inside the snapshot's error (measured 31.9 against
+  // The filter uses every range, not four: inside the snapshot's error (measured 28.4 against
   // 43.1 mm: this geometry's horizontal precision is poor, anchors 0.3-2.2 m above the tag),
   // and its stated covariance is right (a mean NEES of 2 for a 2-D error; below, on the safe side).
   EXPECT_LT(p95(run.errors_2d), 0.8 * p95(run.snapshot_2d));
@@ -131,6 +140,70 @@ TEST(RangeTracker, LearnsTheBiasOfAnAnchorThatReadsLong) {
   for (int k : {0, 1, 3}) EXPECT_NEAR(learnt.biases[static_cast<std::size_t>(k)], 0.0, 0.02) << k;
   EXPECT_LT(p95(learnt.errors_2d), 0.05);
   EXPECT_GT(p95(ignored.errors_2d), 2 * p95(learnt.errors_2d));
+}
+
+TEST(RangeTracker, OdometrySpeedTightensTheTrack) {
+  // The same circle and ranges, with and without wheel odometry (distance per 40 ms firing,
+  // 1 mm 1-sigma: 2 % of 0.4 m/s * 40 ms, plus a little).
+  RangeTrackerOptions options;
+  options.known_height = 0.3;
+  const CircleRun ranges_only = run_circle(options, 0.05, 0.0, 0.0, 7);
+  const CircleRun with_odometry = run_circle(options, 0.05, 0.0, 0.0, 7, 0.001);
+  std::printf("circle, 5 cm ranges: p95 2-D %.1f mm with odometry (mean NEES %.2f), %.1f mm without\n",
+              1e3 * p95(with_odometry.errors_2d), with_odometry.mean_nees, 1e3 * p95(ranges_only.errors_2d));
+  EXPECT_LT(p95(with_odometry.errors_2d), 0.9 * p95(ranges_only.errors_2d));
+  EXPECT_LT(with_odometry.mean_nees, 3.0);
+}
+
+TEST(RangeTracker, ZeroOdometryHoldsAStandingTagStill) {
+  // A parked robot: 5 cm ranges at 100 Hz; its wheels say it has not moved (0 +- 1 mm per 40 ms).
+  RangeTrackerOptions options;
+  options.known_height = 1.0;
+  const Eigen::Vector3d tag(2.0, 1.5, 1.0);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  RangeTracker plain(kAnchors, options), still(kAnchors, options);
+  std::vector<double> plain_error, still_error;
+  std::uint64_t unused = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const std::int64_t t = static_cast<std::int64_t>(i) * 10 * kMs;
+    const std::size_t a = static_cast<std::size_t>(i) % kAnchors.size();
+    const double range = (kAnchors[a] - tag).norm() + noise(rng);
+    plain.add_anchor_range(t, a, range, 0.05);
+    still.add_anchor_range(t, a, range, 0.05);
+    if (a == 3 && still.add_speed(t, 0.0, 0.001 / 0.04) == RangeUpdate::kUnused) ++unused;
+    if (i > 500) {
+      plain_error.push_back((plain.state()->position - tag).head<2>().norm());
+      still_error.push_back((still.state()->position - tag).head<2>().norm());
+    }
+  }
+  std::printf("standing tag, 5 cm ranges: p95 2-D %.1f mm with zero odometry, %.1f mm without\n",
+              1e3 * p95(still_error), 1e3 * p95(plain_error));
+  EXPECT_EQ(unused, 0u);  // the first firing's speed comes after its track has started (4th range)
+  EXPECT_GT(still.speeds(), 700u);
+  EXPECT_LT(p95(still_error), 0.6 * p95(plain_error));
+  EXPECT_LT(still.state()->velocity.norm(), 1e-3);
+}
+
+TEST(RangeTracker, ASpeedNeitherStartsNorDirectsATrack) {
+  RangeTrackerOptions options;
+  options.known_height = 1.0;
+  RangeTracker tracker(kAnchors, options);
+  EXPECT_EQ(tracker.add_speed(0, 0.3, 0.01), RangeUpdate::kUnused);  // no track yet
+  EXPECT_EQ(tracker.add_speed(0, -0.1, 0.01), RangeUpdate::kInvalid);
+  EXPECT_EQ(tracker.add_speed(0, 0.1, 0.0), RangeUpdate::kInvalid);
+  const Eigen::Vector3d tag(2.0, 1.5, 1.0);
+  for (std::size_t a = 0; a < kAnchors.size(); ++a)
+    tracker.add_anchor_range(static_cast<std::int64_t>(a) * 10 * kMs, a, (kAnchors[a] - tag).norm(), 0.02);
+  ASSERT_TRUE(tracker.started());
+  // Started at rest (velocity 0): a moving speed has no direction to be applied along.
+  EXPECT_EQ(tracker.add_speed(40 * kMs, 0.3, 0.01), RangeUpdate::kUnused);
+  EXPECT_EQ(tracker.add_speed(50 * kMs, 0.0, 0.01), RangeUpdate::kAccepted);
+  // Seconds later a speed neither restarts the track nor keeps it alive.
+  EXPECT_EQ(tracker.add_speed(5000 * kMs, 0.0, 0.01), RangeUpdate::kUnused);
+  EXPECT_TRUE(tracker.started());
+  EXPECT_EQ(tracker.restarts(), 0u);
+  EXPECT_STREQ(range_update_word(RangeUpdate::kUnused), "unused");
 }
 
 TEST(RangeTracker, TheGateLeavesOutNonLineOfSightRanges) {

@@ -105,6 +105,28 @@ tags:
   EXPECT_NEAR(static_cast<double>(e2.size()) / n, 0.7, 0.04);  // dropout 0.3: binomial sd 0.007
 }
 
+TEST(SceneRanging, ATagsOdometryIsThePathItTravelled) {
+  // Marker 1 on a circle of r 0.45 m at 0.2 m/s: the tag on it travels 0.2 m per second (an
+  // arc, longer than its chord); a still tag travels nothing.
+  const Scene s = Scene::load(write_scene("odometry", R"(markers:
+  - {id: 1, height: 0.1, trajectory: {type: circle, center: [3, 2], radius: 0.45, speed: 0.2}}
+  - {id: 2, x: 1, y: 1}
+anchors:
+  - {id: 1, position: [0, 0, 2.5]}
+tags:
+  - {id: 7, marker: 1, odometry: 0.002}
+  - {id: 8, marker: 2}
+)"));
+  ASSERT_EQ(s.tags.size(), 2u);
+  ASSERT_TRUE(s.tags[0].odometry);
+  EXPECT_DOUBLE_EQ(*s.tags[0].odometry, 0.002);
+  EXPECT_FALSE(s.tags[1].odometry);
+  EXPECT_NEAR(s.tag_travelled(0, 1.0, 4.0), 0.6, 1e-6);
+  const double chord = (*s.tag_position(0, 4.0) - *s.tag_position(0, 1.0)).norm();
+  EXPECT_LT(chord, 0.59);
+  EXPECT_EQ(s.tag_travelled(1, 0.0, 5.0), 0.0);
+}
+
 TEST(SceneRanging, TyposAreErrorsNamingTheLineAndKey) {
   const auto error_of = [](const std::string& name, const std::string& text) -> std::string {
     try {
@@ -131,6 +153,10 @@ TEST(SceneRanging, TyposAreErrorsNamingTheLineAndKey) {
                 .find("nlos_zones[0].bias: must be > 0"),
             std::string::npos);
   EXPECT_NE(error_of("e6", markers).find("cameras"), std::string::npos);  // neither cameras nor anchors
+  EXPECT_NE(error_of("e7", markers + "anchors:\n  - {id: 1, position: [0, 0, 1]}\ntags:\n  - {id: 7, marker: 1, "
+                                     "odometry: 0}\n")
+                .find(":6: tags[0].odometry: must be > 0"),
+            std::string::npos);
 }
 
 // The Petkovic-like room of the issue: 4 anchors at the corners of a 6 x 4 m room at

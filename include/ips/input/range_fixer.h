@@ -33,6 +33,11 @@ struct RangeFixCounters {
   std::map<std::string, std::uint64_t> ranges;
   /// ranging.track.camera_reference: camera-seen states of a tag's own robot used by its track.
   std::uint64_t camera_references = 0;
+  /// Firings with odometry, by what it did: with ranging.track a speed update of the track
+  /// (range_update_word: accepted, rejected, unused); solved per firing, `sphere` (a range to
+  /// the tag's previous fix); `no_previous` when the tag's previous firing was not received
+  /// (the distance then spans an unknown time).
+  std::map<std::string, std::uint64_t> odometry;
 };
 
 /// A tag's track as the status shows it.
@@ -72,7 +77,10 @@ class RangeFixer {
   /// The observation of `firing`'s tag at its firing time, or nullopt (counted) if it cannot
   /// be solved. `t_real_ns` is the firing time on this host's CLOCK_REALTIME. A range to
   /// another tag uses that tag's robot, as published, as an anchor: its position's variance
-  /// (the mean over the axes) is added to the range's.
+  /// (the mean over the axes) is added to the range's. A firing's odometry (the distance
+  /// travelled since the tag's previous firing, if that firing was received) is, with
+  /// ranging.track, the tag's speed over the time between them; solved per firing, a range to
+  /// the previous firing's fix (Albayati & Kurt's "own last position and distance travelled").
   std::optional<WorldObservation> fix(const AdmittedFiring& firing, std::int64_t t_real_ns);
 
   const RangeFixCounters& counters() const { return counters_; }
@@ -102,6 +110,16 @@ class RangeFixer {
   std::vector<Eigen::Vector3d> anchor_positions_;
   std::map<std::uint32_t, RangeTracker> trackers_;               // by tag
   std::map<std::uint32_t, std::int64_t> camera_reference_used_;  // by tag: the last camera state's time fed
+  /// A tag's recent firings (by firing counter), for the odometry of the next one.
+  struct PastFiring {
+    std::int64_t t_ns = 0;
+    std::optional<MobileReference> fix;  // the position it gave, if any
+  };
+  std::map<std::uint32_t, std::map<std::uint32_t, PastFiring>> past_firings_;  // by tag
+  /// The firing before `firing` of the same tag, if received (and within the reorder window).
+  const PastFiring* previous_firing(const AdmittedFiring& firing) const;
+  void remember_firing(const AdmittedFiring& firing, const std::optional<WorldObservation>& fix);
+  static double odometry_sigma(const RangeFiring& firing);
 };
 
 }  // namespace ips

@@ -67,6 +67,7 @@ enum class RangeUpdate {
   kRejected,      ///< left out by the gate (non-line-of-sight, or a wrong anchor)
   kOutOfOrder,    ///< older than the reorder window (or than the track's start): left out
   kInvalid,       ///< not a finite, positive range with a positive sigma
+  kUnused,        ///< a speed the track could not use: not started, or no direction to apply it along
 };
 const char* range_update_word(RangeUpdate update);  // initialising, started, accepted, ...
 
@@ -96,6 +97,13 @@ class RangeTracker {
   /// starts a track that has none yet. Not gated (the cameras are the reference).
   RangeUpdate add_position(std::int64_t t_ns, const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance);
 
+  /// The tag's speed at t_ns (m/s) with its 1-sigma: odometry's distance travelled since the
+  /// previous firing over the time between them. A scalar update of |velocity| along the
+  /// track's own direction of travel, gated like a range; a speed within 2 sigma of zero is
+  /// standing still (velocity 0 on every axis, sigma + the speed itself). kUnused before the
+  /// track starts, or when it has no direction yet (|velocity| < 1 mm/s) for a moving tag.
+  RangeUpdate add_speed(std::int64_t t_ns, double speed_mps, double sigma_mps);
+
   bool started() const { return started_; }
   /// The state at the last range (nullopt before the first fix).
   std::optional<RangeTrackState> state() const;
@@ -111,16 +119,18 @@ class RangeTracker {
   std::uint64_t restarts() const { return restarts_; }
   std::uint64_t replayed() const { return replayed_; }    ///< late ranges applied in their place
   std::uint64_t positions() const { return positions_; }  ///< add_position updates used
+  std::uint64_t speeds() const { return speeds_; }        ///< add_speed updates used
   bool learning_bias() const { return has_bias_ && !bias_locked_; }
 
  private:
+  enum class Kind { kRange, kPosition, kSpeed };
   struct Pending {
     std::int64_t t_ns;
     int anchor;                 // -1: mobile
-    Eigen::Vector3d reference;  // the reference's position, or the position measured (is_position)
-    double range_m, sigma_m;
-    bool is_position = false;
-    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // is_position: of the position
+    Eigen::Vector3d reference;  // the reference's position, or the position measured (kPosition)
+    double range_m, sigma_m;    // kSpeed: the speed and its sigma, m/s
+    Kind kind = Kind::kRange;
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // kPosition: of the position
   };
   struct Snapshot {
     std::int64_t t_ns = 0;
@@ -136,6 +146,10 @@ class RangeTracker {
   RangeUpdate apply(const Pending& range);
   RangeUpdate collect(const Pending& range);
   RangeUpdate update_position(const Pending& position, const Eigen::VectorXd& x, const Eigen::MatrixXd& p);
+  RangeUpdate update_speed(const Pending& speed, const Eigen::VectorXd& x, const Eigen::MatrixXd& p);
+  /// A linear update of the rows `h` of the state by z (covariance r), Joseph form.
+  void update_linear(const Eigen::MatrixXd& h, const Eigen::VectorXd& z, const Eigen::MatrixXd& r,
+                     const Eigen::VectorXd& x, const Eigen::MatrixXd& p);
   RangeUpdate start_at(const Pending& position);
   void start(std::int64_t t_ns, const Eigen::Vector3d& position, const Eigen::MatrixXd& covariance);
   void propagate(std::int64_t from_ns, std::int64_t to_ns, Eigen::VectorXd& x, Eigen::MatrixXd& p) const;
@@ -159,7 +173,7 @@ class RangeTracker {
   Snapshot base_;                // the state before the reorder window's oldest range
   std::deque<Applied> history_;  // the reorder window, oldest first
   bool replaying_ = false;       // applying newer ranges again: not counted twice
-  std::uint64_t accepted_ = 0, rejected_ = 0, restarts_ = 0, replayed_ = 0, positions_ = 0;
+  std::uint64_t accepted_ = 0, rejected_ = 0, restarts_ = 0, replayed_ = 0, positions_ = 0, speeds_ = 0;
 };
 
 }  // namespace ips

@@ -137,6 +137,9 @@ struct SceneTag {
   bool range_tags = false;
   double sigma = 0.05;
   double max_range = 50.0;
+  /// Wheel odometry: each firing also says how far the tag travelled since its previous one,
+  /// with this 1-sigma (m); absent = none.
+  std::optional<double> odometry;
 };
 
 /// One simulated range of a firing, with its truth.
@@ -175,6 +178,8 @@ class Scene {
   /// Exact position of tag `index` (into `tags`) at scene time t; nullopt while its marker is
   /// picked up.
   std::optional<Eigen::Vector3d> tag_position(std::size_t index, double t) const;
+  /// Exact length of the path tag `index` travelled from scene time t0 to t1 (m; 0 while absent).
+  double tag_travelled(std::size_t index, double t0, double t1) const;
   /// The ranges tag `index` measures when it fires at scene time t (anchors first, in file
   /// order, then other tags); `rng` draws the noise and the dropouts.
   std::vector<SimRange> fire_tag(std::size_t index, double t, std::mt19937_64& rng) const;
