@@ -43,6 +43,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
   } catch (const ips::InputError&) {
   }
+  try {
+    std::istringstream in(text);
+    (void)ips::parse_positions_csv(in, "positions.csv");
+  } catch (const ips::InputError&) {
+  }
   std::string_view rest(text);
   for (int lines = 0; !rest.empty() && lines < 64; ++lines) {
     const std::size_t nl = rest.find('\n');

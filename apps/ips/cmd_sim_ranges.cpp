@@ -112,7 +112,7 @@ int run(const Args& a) {
     y << "# the anchors of " << a.scene << "\nanchors:\n";
     for (const auto& an : scene.anchors)
       y << "  - {id: " << an.id << ", x: " << an.position.x() << ", y: " << an.position.y()
-        << ", z: " << an.position.z() << "}\n";
+        << ", z: " << an.position.z() << (an.bias != 0 ? ", bias: " + std::to_string(an.bias) : std::string()) << "}\n";
     ips::cli::write_file_atomically(a.anchors, y.str());
   }
   std::printf("wrote %zu ranges of %zu firings to %s\n", rows, fixes, a.out.c_str());
@@ -124,7 +124,8 @@ std::function<int()> setup(CLI::App& sub) {
   sub.add_option("--scene", a->scene, "Scene YAML file with anchors: and tags:")->required();
   sub.add_option("--out", a->out, "Ranges CSV, as ips trilaterate reads it (or --send)");
   sub.add_option("--truth", a->truth, "Exact tag positions per fix: fix,tag,t,x,y,z (--send: and firing_realtime_ns)");
-  sub.add_option("--anchors", a->anchors, "Write the scene's anchors as ips trilaterate's anchors.yaml");
+  sub.add_option("--anchors", a->anchors,
+                 "Write the scene's anchors (positions, biases) as ips trilaterate's anchors.yaml");
   sub.add_option("--rate", a->rate, "Firings per second of every tag")->capture_default_str();
   sub.add_option("--seconds", a->seconds, "Scene time to simulate")->capture_default_str();
   sub.add_option("--seed", a->seed, "Random seed of the noise and dropouts")->capture_default_str();

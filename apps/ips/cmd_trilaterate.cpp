@@ -3,6 +3,7 @@
 // with its status word (coplanar, too_few, ...) and no position.
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -34,7 +35,8 @@ ips::RangeFix solve(const Options& o, const ips::RangeFixInput& fix) {
 int run(const Options& o) {
   if (o.z_range.size() == 2 && !(o.z_range[0] <= o.z_range[1]))
     throw ips::InputError("--z-range: the minimum is above the maximum");
-  const ips::AnchorMap anchors = ips::load_anchors_yaml(o.anchors);
+  std::map<std::string, double> biases;
+  const ips::AnchorMap anchors = ips::load_anchors_yaml(o.anchors, &biases);
   std::ifstream in(o.ranges);
   if (!in) throw ips::InputError(o.ranges + ": cannot read the file");
   auto inputs = ips::parse_ranges_csv(in, o.ranges, anchors);
@@ -43,6 +45,9 @@ int run(const Options& o) {
     for (auto& input : inputs)
       for (auto& r : input.ranges) r.range_m *= air;
   }
+  for (auto& input : inputs)  // each anchor's bias (ips ranging calibrate) undone, as ipsd does
+    for (std::size_t i = 0; i < input.ranges.size(); ++i)
+      if (!input.anchors[i].empty()) input.ranges[i].range_m -= biases[input.anchors[i]];
   std::vector<ips::NamedFix> fixes;
   int solved = 0;
   for (std::size_t i = 0; i < inputs.size(); ++i) {
@@ -75,7 +80,7 @@ IPS_REGISTER_COMMAND(
     "trilaterate", "Positions from ranges to anchors (UWB / ultrasound), offline, one per fix",
     [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<Options>();
-      sub.add_option("--anchors", o->anchors, "anchors.yaml: anchors: [{id, x, y, z}]")
+      sub.add_option("--anchors", o->anchors, "anchors.yaml: anchors: [{id, x, y, z[, bias]}]")
           ->required()
           ->check(CLI::ExistingFile);
       sub.add_option("--ranges", o->ranges, "ranges.csv: fix,reference,range[,sigma,ref_x,ref_y,ref_z,ref_sigma]")

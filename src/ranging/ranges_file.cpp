@@ -14,7 +14,7 @@
 #include "ips/core/error.h"
 
 namespace ips {
-AnchorMap load_anchors_yaml(const std::filesystem::path& path) {
+AnchorMap load_anchors_yaml(const std::filesystem::path& path, std::map<std::string, double>* biases) {
   const std::string file = path.string();
   YAML::Node root;
   try {
@@ -38,13 +38,55 @@ AnchorMap load_anchors_yaml(const std::filesystem::path& path) {
     a.get("x", p.x(), true);
     a.get("y", p.y(), true);
     a.get("z", p.z(), true);
+    double bias = 0.0;
+    a.get("bias", bias, false);
     a.finish();
+    if (std::abs(bias) > 10)
+      throw InputError(file + ": anchors[" + std::to_string(i) + "].bias: " + std::to_string(bias) +
+                       " m is not a bias");
     if (id.empty()) throw InputError(file + ": anchors[" + std::to_string(i) + "].id: empty");
     if (!anchors.emplace(id, p).second)
       throw InputError(file + ": anchors[" + std::to_string(i) + "].id: '" + id + "' is given twice");
+    if (biases) (*biases)[id] = bias;
   }
   return anchors;
 }
+
+namespace {
+
+using Columns = std::map<std::string, std::size_t, std::less<>>;
+
+// The header (the first non-blank line): each column's index. `known` (if not empty) lists the
+// columns allowed; `required` those that must be there. `line_no` is left at the header's line.
+Columns read_header(std::istream& in, const std::string& name, std::size_t& line_no,
+                    const std::set<std::string_view>& known, std::initializer_list<const char*> required,
+                    const char* expected) {
+  std::string line;
+  Columns col;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (trim_csv_field(line).empty()) continue;
+    const auto header = split_csv_line(line);
+    for (std::size_t i = 0; i < header.size(); ++i) {
+      if (!known.empty() && !known.count(header[i])) {
+        std::string columns;
+        for (const std::string_view k : known) columns += (columns.empty() ? "" : ", ") + std::string(k);
+        throw InputError(name + ":" + std::to_string(line_no) + ": unknown column '" + std::string(header[i]) +
+                         "' (the columns: " + columns + ")");
+      }
+      if (!col.emplace(std::string(header[i]), i).second)
+        throw InputError(name + ":" + std::to_string(line_no) + ": column '" + std::string(header[i]) + "' twice");
+    }
+    break;
+  }
+  if (col.empty()) throw InputError(name + ": empty file (expected the header " + expected + ")");
+  for (const char* r : required)
+    if (!col.count(r))
+      throw InputError(name + ":" + std::to_string(line_no) + ": the header has no column '" + r + "'");
+  return col;
+}
+
+}  // namespace
 
 std::vector<RangeFixInput> parse_ranges_csv(std::istream& in, const std::string& name, const AnchorMap& anchors,
                                             double default_sigma) {
@@ -52,24 +94,7 @@ std::vector<RangeFixInput> parse_ranges_csv(std::istream& in, const std::string&
                                                     "ref_x", "ref_y",     "ref_z", "ref_sigma"};
   std::string line;
   std::size_t line_no = 0;
-  std::map<std::string, std::size_t, std::less<>> col;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (trim_csv_field(line).empty()) continue;
-    const auto header = split_csv_line(line);
-    for (std::size_t i = 0; i < header.size(); ++i) {
-      if (!kKnown.count(header[i]))
-        throw InputError(name + ":" + std::to_string(line_no) + ": unknown column '" + std::string(header[i]) +
-                         "' (fix, reference, range, sigma, ref_x, ref_y, ref_z, ref_sigma)");
-      if (!col.emplace(std::string(header[i]), i).second)
-        throw InputError(name + ":" + std::to_string(line_no) + ": column '" + std::string(header[i]) + "' twice");
-    }
-    break;
-  }
-  if (col.empty()) throw InputError(name + ": empty file (expected the header fix,reference,range)");
-  for (const char* required : {"fix", "reference", "range"})
-    if (!col.count(required))
-      throw InputError(name + ":" + std::to_string(line_no) + ": the header has no column '" + required + "'");
+  const Columns col = read_header(in, name, line_no, kKnown, {"fix", "reference", "range"}, "fix,reference,range");
   const bool inline_position = col.count("ref_x") || col.count("ref_y") || col.count("ref_z");
   if (inline_position && !(col.count("ref_x") && col.count("ref_y") && col.count("ref_z")))
     throw InputError(name + ":" + std::to_string(line_no) + ": ref_x, ref_y and ref_z come together");
@@ -98,11 +123,13 @@ std::vector<RangeFixInput> parse_ranges_csv(std::istream& in, const std::string&
     r.sigma_m = optional_number("sigma").value_or(default_sigma);
     if (!(r.sigma_m > 0)) throw InputError(at + ": column 'sigma': must be > 0");
     const auto rx = optional_number("ref_x"), ry = optional_number("ref_y"), rz = optional_number("ref_z");
+    std::string anchor_id;
     if (rx || ry || rz) {
       if (!(rx && ry && rz)) throw InputError(at + ": ref_x, ref_y and ref_z are given together or not at all");
       r.anchor = {*rx, *ry, *rz};
     } else if (const auto it = anchors.find(reference); it != anchors.end()) {
       r.anchor = it->second;
+      anchor_id = reference;
     } else {
       throw InputError(at + ": reference '" + reference +
                        "' is not in the anchors file and has no inline position (ref_x, ref_y, ref_z)");
@@ -112,10 +139,39 @@ std::vector<RangeFixInput> parse_ranges_csv(std::istream& in, const std::string&
       r.sigma_m = std::hypot(r.sigma_m, *ref_sigma);
     }
     auto [it, fresh] = index.emplace(fix, fixes.size());
-    if (fresh) fixes.push_back({fix, {}, line_no});
+    if (fresh) fixes.push_back({fix, {}, {}, line_no});
     fixes[it->second].ranges.push_back(r);
+    fixes[it->second].anchors.push_back(anchor_id);
   }
   return fixes;
+}
+
+std::map<std::string, KnownPosition> parse_positions_csv(std::istream& in, const std::string& name) {
+  std::string line;
+  std::size_t line_no = 0;
+  const Columns col = read_header(in, name, line_no, {}, {"fix", "x", "y", "z"}, "fix,x,y,z");
+  std::map<std::string, KnownPosition> out;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (trim_csv_field(line).empty()) continue;
+    const std::string at = name + ":" + std::to_string(line_no);
+    const auto f = split_csv_line(line);
+    if (f.size() != col.size())
+      throw InputError(at + ": " + std::to_string(f.size()) + " fields, the header has " + std::to_string(col.size()));
+    const auto number = [&](const char* c) {
+      return parse_csv_number(f[col.at(c)], at, "column '" + std::string(c) + "'");
+    };
+    const std::string fix(f[col.at("fix")]);
+    if (fix.empty()) throw InputError(at + ": column 'fix': empty value");
+    KnownPosition p;
+    p.position = {number("x"), number("y"), number("z")};
+    if (col.count("sigma") && !f[col.at("sigma")].empty()) {
+      p.sigma_m = number("sigma");
+      if (*p.sigma_m < 0) throw InputError(at + ": column 'sigma': negative");
+    }
+    if (!out.emplace(fix, p).second) throw InputError(at + ": fix '" + fix + "' is given twice");
+  }
+  return out;
 }
 
 void write_fixes_csv(std::ostream& out, const std::vector<NamedFix>& fixes) {

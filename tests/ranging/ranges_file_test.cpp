@@ -8,14 +8,20 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
+#include <vector>
+
+#include <unistd.h>
 
 #include "command.h"
 #include "ips/core/error.h"
 
 namespace ips {
 namespace {
+
+namespace fs = std::filesystem;
 
 const AnchorMap kAnchors = {{"a", {0, 0, 0}}, {"b", {4, 0, 0}}, {"c", {0, 4, 0}}, {"7", {0, 0, 4}}};
 
@@ -48,6 +54,46 @@ TEST(RangesFile, RowsAreGroupedByFixWithInlineReferencesAndSigmas) {
   EXPECT_EQ(fixes[0].ranges[2].anchor, Eigen::Vector3d(1, 2, 0.5));  // inline: a mobile reference
   EXPECT_EQ(fixes[1].fix, "2");
   EXPECT_EQ(fixes[1].ranges[0].anchor, Eigen::Vector3d(4, 0, 0));
+  // Which anchor each range is to ("" for an inline reference): for each anchor's bias.
+  EXPECT_EQ(fixes[0].anchors, (std::vector<std::string>{"a", "7", ""}));
+  EXPECT_EQ(fixes[1].anchors, (std::vector<std::string>{"b"}));
+}
+
+TEST(RangesFile, PositionsByFixWithOptionalSigmaAndOtherColumnsIgnored) {
+  std::istringstream in("fix,tag,t,x,y,z,sigma\nf1,7,0.0,1,2,0.3,\nf2,7,0.2,1.5,2.5,0.3,0.01\n");
+  const auto p = parse_positions_csv(in, "p.csv");
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(p.at("f1").position, Eigen::Vector3d(1, 2, 0.3));
+  EXPECT_FALSE(p.at("f1").sigma_m);
+  EXPECT_EQ(p.at("f2").sigma_m, 0.01);
+  const auto error = [](const std::string& csv) -> std::string {
+    std::istringstream text(csv);
+    try {
+      parse_positions_csv(text, "p.csv");
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(error(""), "p.csv: empty file (expected the header fix,x,y,z)");
+  EXPECT_NE(error("fix,x,y\n").find("p.csv:1: the header has no column 'z'"), std::string::npos);
+  EXPECT_NE(error("fix,x,y,z\nf1,1,2,nan\n").find("p.csv:2: column 'z': 'nan' is not a finite"), std::string::npos);
+  EXPECT_NE(error("fix,x,y,z\nf1,1,2,3\nf1,1,2,3\n").find("p.csv:3: fix 'f1' is given twice"), std::string::npos);
+  EXPECT_NE(error("fix,x,y,z,sigma\nf1,1,2,3,-1\n").find("p.csv:2: column 'sigma': negative"), std::string::npos);
+  EXPECT_NE(error("fix,x,y,z\nf1,1,2\n").find("p.csv:2: 3 fields, the header has 4"), std::string::npos);
+}
+
+TEST(RangesFile, AnchorsMayGiveABias) {
+  const fs::path file = fs::temp_directory_path() / ("ips_anchors_bias_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(file) << "anchors:\n  - {id: 1, x: 0, y: 0, z: 2, bias: 0.04}\n  - {id: 2, x: 4, y: 0, z: 2}\n";
+  std::map<std::string, double> biases;
+  const AnchorMap anchors = load_anchors_yaml(file, &biases);
+  EXPECT_EQ(anchors.size(), 2u);
+  EXPECT_EQ(biases.at("1"), 0.04);
+  EXPECT_EQ(biases.at("2"), 0.0);
+  std::ofstream(file) << "anchors:\n  - {id: 1, x: 0, y: 0, z: 2, bais: 0.04}\n";
+  EXPECT_THROW(load_anchors_yaml(file), InputError);  // a typo is an error, not a bias of 0
+  fs::remove(file);
 }
 
 TEST(RangesFile, MalformedRowsAreNamedByFileAndLine) {

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "command.h"
+#include "csv_rows.h"
 #include "ips/core/error.h"
 #include "ips/sim/scene.h"
 
@@ -183,20 +184,7 @@ tags:
   r = ips::test::run_program("ips", "trilaterate --anchors " + (dir / "anchors.yaml").string() + " --ranges " +
                                         (dir / "ranges.csv").string() + " --out " + (dir / "fixes.csv").string());
   ASSERT_EQ(r.status, 0) << r.out;
-  const auto rows = [](const fs::path& file) {
-    std::ifstream in(file);
-    std::string line;
-    std::getline(in, line);
-    std::map<std::string, std::vector<double>> out;
-    while (std::getline(in, line)) {
-      std::stringstream ss(line);
-      std::string cell, name;
-      std::getline(ss, name, ',');
-      while (std::getline(ss, cell, ',')) out[name].push_back(cell == "ok" ? 1.0 : std::atof(cell.c_str()));
-    }
-    return out;
-  };
-  const auto truth = rows(dir / "truth.csv"), fixes = rows(dir / "fixes.csv");
+  const auto truth = ips::test::csv_rows(dir / "truth.csv"), fixes = ips::test::csv_rows(dir / "fixes.csv");
   ASSERT_EQ(truth.size(), 100u);
   ASSERT_EQ(fixes.size(), 100u);
   std::vector<double> errors;
