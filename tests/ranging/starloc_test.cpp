@@ -19,88 +19,10 @@
 #include "ips/input/range_fixer.h"
 #include "ips/ranging/multilateration.h"
 #include "ips/ranging/range_tracker.h"
+#include "starloc_data.h"
 
 namespace ips {
 namespace {
-
-std::filesystem::path starloc_dir() {
-  if (const char* env = std::getenv("IPS_STARLOC_DIR")) return env;
-  return std::filesystem::path(IPS_CONFIG_DIR) / ".." / ".." / "shared" / "data" / "starloc";
-}
-
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> out;
-  std::stringstream ss(line);
-  std::string cell;
-  while (std::getline(ss, cell, ',')) out.push_back(cell);
-  return out;
-}
-
-struct Row {
-  double t = 0, range = 0, range_calib = 0, std_m = 0, gt_range = 0;
-  int tag = 0, anchor = 0;
-  Eigen::Vector3d truth;
-};
-
-struct StarLocSequence {
-  std::vector<Row> rows;                     // time order
-  std::map<int, Eigen::Vector3d> anchor_of;  // UWB module id -> position (Vicon frame)
-};
-
-// Loads loop-2d-fast_s2 (present = false where the data is absent).
-void load_starloc(StarLocSequence& seq, bool& present) {
-  auto& rows = seq.rows;
-  auto& anchor_of = seq.anchor_of;
-  present = false;
-  const auto dir = starloc_dir();
-  const auto csv = dir / "data" / "loop-2d-fast_s2" / "uwb.csv";
-  if (!std::filesystem::exists(csv)) return;
-  present = true;
-  // Anchor positions (Vicon frame) by marker id.
-  std::map<int, Eigen::Vector3d> markers;
-  {
-    std::ifstream in(dir / "mocap" / "uwb_markers_v1.csv");
-    std::string line;
-    std::getline(in, line);
-    while (std::getline(in, line)) {
-      const auto c = split(line);
-      ASSERT_EQ(c.size(), 4u) << line;
-      markers[std::stoi(c[0])] = {std::stod(c[1]), std::stod(c[2]), std::stod(c[3])};
-    }
-  }
-  std::ifstream in(csv);
-  std::string line;
-  std::getline(in, line);
-  const auto header = split(line);
-  std::map<std::string, std::size_t> col;
-  for (std::size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
-  for (const char* name : {"time_s", "range", "from_id", "to_id", "tag_pos_x", "gt_range", "range_calib", "std"})
-    ASSERT_TRUE(col.count(name)) << "uwb.csv has no column " << name;
-  while (std::getline(in, line)) {
-    const auto c = split(line);
-    if (c.size() < header.size() || c[col["tag_pos_x"]].empty() || c[col["range_calib"]].empty()) continue;
-    Row r;
-    r.t = std::stod(c[col["time_s"]]);
-    r.range = std::stod(c[col["range"]]);
-    r.range_calib = std::stod(c[col["range_calib"]]);
-    r.std_m = std::stod(c[col["std"]]);
-    r.gt_range = std::stod(c[col["gt_range"]]);
-    r.tag = std::stoi(c[col["from_id"]]);
-    r.anchor = std::stoi(c[col["to_id"]]);
-    r.truth = {std::stod(c[col["tag_pos_x"]]), std::stod(c[col["tag_pos_y"]]), std::stod(c[col["tag_pos_z"]])};
-    rows.push_back(r);
-  }
-  ASSERT_GT(rows.size(), 7000u);
-  // The ranges' anchor ids are the UWB modules', not the marker file's: each module is the one
-  // marker whose distance to the true tag position is the dataset's gt_range (to 1e-9 m).
-  for (const Row& r : rows) {
-    if (anchor_of.count(r.anchor)) continue;
-    for (const auto& [id, pos] : markers)
-      if (std::abs((pos - r.truth).norm() - r.gt_range) < 1e-9) anchor_of[r.anchor] = pos;
-    ASSERT_TRUE(anchor_of.count(r.anchor)) << "no marker at gt_range of UWB anchor " << r.anchor;
-  }
-  ASSERT_EQ(anchor_of.size(), 8u);
-}
 
 double pct(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
@@ -123,12 +45,12 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
     for (double t = 0.1; t < rows.back().t; t += 0.1) {
       while (end < rows.size() && rows[end].t <= t) ++end;
       for (int tag : {1, 2}) {
-        std::map<int, const Row*> latest;
+        std::map<int, const StarLocRow*> latest;
         for (std::size_t i = end; i-- > 0 && rows[i].t > t - 0.07;)
           if (rows[i].tag == tag && !latest.count(rows[i].anchor)) latest[rows[i].anchor] = &rows[i];
         if (latest.size() < 6) continue;
         std::vector<RangeToAnchor> ranges;
-        const Row* last = nullptr;
+        const StarLocRow* last = nullptr;
         for (const auto& [anchor, r] : latest) {
           ranges.push_back({anchor_of[anchor], calibrated ? r->range_calib : r->range, r->std_m > 0 ? r->std_m : 0.1});
           if (!last || r->t > last->t) last = r;
@@ -178,7 +100,7 @@ TEST(StarLoc, ReplayedThroughTheRangeInputTheTrackerBeatsTheSlidingWindowBaselin
   if (HasFatalFailure()) return;
   if (!present) GTEST_SKIP() << "no STAR-loc data at " << starloc_dir() << " (IPS_STARLOC_DIR)";
   auto rows = seq.rows;
-  std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) { return a.t < b.t; });
+  std::stable_sort(rows.begin(), rows.end(), [](const StarLocRow& a, const StarLocRow& b) { return a.t < b.t; });
   // The lab as a user would configure it: the 8 anchors, tags 1 and 2 as markers 1 and 2,
   // 10 cm ranges, up to 400 ranges a second from the one bridge.
   RangingConfig config;
@@ -205,7 +127,7 @@ TEST(StarLoc, ReplayedThroughTheRangeInputTheTrackerBeatsTheSlidingWindowBaselin
   const auto to_ns = [](double t) { return static_cast<std::int64_t>(std::llround(t * 1e9)); };
   for (double t = 0.1; t < rows.back().t; t += 0.1) {
     for (; end < rows.size() && rows[end].t <= t; ++end) {
-      const Row& r = rows[end];
+      const StarLocRow& r = rows[end];
       RangeFiring firing;
       firing.tag = static_cast<std::uint32_t>(r.tag);
       firing.firing = firing_counter[r.tag]++;
@@ -222,12 +144,12 @@ TEST(StarLoc, ReplayedThroughTheRangeInputTheTrackerBeatsTheSlidingWindowBaselin
       }
     }
     for (int tag : {1, 2}) {
-      std::map<int, const Row*> latest;
+      std::map<int, const StarLocRow*> latest;
       for (std::size_t i = end; i-- > 0 && rows[i].t > t - 0.07;)
         if (rows[i].tag == tag && !latest.count(rows[i].anchor)) latest[rows[i].anchor] = &rows[i];
       if (latest.size() < 4 || !latest_position[tag]) continue;
       std::vector<RangeToAnchor> ranges;
-      const Row* last = nullptr;
+      const StarLocRow* last = nullptr;
       for (const auto& [anchor, r] : latest) {
         ranges.push_back({seq.anchor_of.at(anchor), r->range, 0.1});
         if (!last || r->t > last->t) last = r;
