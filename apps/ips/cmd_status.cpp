@@ -137,6 +137,28 @@ int run_status(const StatusOptions& o) {
           std::printf(" %s %llu", what.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
       std::printf("\n");
     }
+    // The daemon's survey of its anchors from the ranges taken under the cameras.
+    for (const auto& a : r.value("anchors", nlohmann::json::array())) {
+      if (!a.is_object()) continue;
+      std::printf("    anchor %llu: %llu ranges under the cameras", count(a, "id"), count(a, "samples"));
+      if (a.value("status", std::string()) != "ok") {
+        std::printf("; %s\n", a.contains("status") ? ("not placed: " + a.value("status", std::string())).c_str()
+                                                   : "no estimate yet");
+        continue;
+      }
+      const std::string what = a.value("estimated", std::string());
+      if (what != "bias") {
+        const auto p = a.value("position", std::vector<double>{}), c = a.value("configured", std::vector<double>{});
+        if (p.size() == 3 && c.size() == 3)
+          std::printf("; %.1f cm from its configured position (%+.1f %+.1f %+.1f cm%s)", 100 * a.value("moved_m", 0.0),
+                      100 * (p[0] - c[0]), 100 * (p[1] - c[1]), 100 * (p[2] - c[2]),
+                      what == "horizontal" ? ", height as configured" : "");
+      } else {
+        std::printf("; position not determined by these ranges");
+      }
+      std::printf("; reads %+.1f cm beyond its bias; rms %.1f cm\n", 100 * a.value("bias_m", 0.0),
+                  100 * a.value("rms_m", 0.0));
+    }
     const auto tracks = r.value("tracks", nlohmann::json::array());
     for (const auto& t : tracks) {
       if (!t.is_object()) continue;

@@ -59,6 +59,25 @@ nlohmann::json RangeLink::status() const {
                       {"learning_bias", t.learning_bias},
                       {"biases", biases}});
   }
+  // Each anchor as the ranges taken under the cameras see it (track.camera_reference).
+  nlohmann::json anchors = nlohmann::json::array();
+  for (const ips::AnchorSurvey& a : fixer_.anchor_surveys()) {
+    nlohmann::json j = {{"id", a.anchor},
+                        {"samples", a.samples},
+                        {"configured", {a.configured.x(), a.configured.y(), a.configured.z()}}};
+    if (a.calibration) {
+      const ips::AnchorCalibration& c = *a.calibration;
+      j["status"] = ips::anchor_calibration_status_word(c.status);
+      j["estimated"] = ips::anchor_unknowns_word(c.unknowns);
+      j["position"] = {c.position.x(), c.position.y(), c.position.z()};
+      j["moved_m"] = (c.position - a.configured).norm();
+      j["bias_m"] = c.bias_m;
+      j["sigma_m"] = {c.sigma(0), c.sigma(1), c.sigma(2), c.sigma(3)};
+      j["rms_m"] = c.rms_m;
+      j["outliers"] = c.outliers;
+    }
+    anchors.push_back(std::move(j));
+  }
   return {{"port", input_->port()},
           {"datagrams", in.datagrams},
           {"accepted", in.accepted},
@@ -73,6 +92,7 @@ nlohmann::json RangeLink::status() const {
           {"ranges", ranges},
           {"odometry", fixes.odometry},
           {"tracks", tracks},
+          {"anchors", anchors},
           {"fixes_dropped_while_restarting", detached_}};
 }
 

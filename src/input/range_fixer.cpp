@@ -12,13 +12,28 @@
 namespace ips {
 
 RangeFixer::RangeFixer(RangingConfig config, StateOf state_of)
-    : config_(std::move(config)), state_of_(std::move(state_of)) {
+    : config_(std::move(config)), state_of_(std::move(state_of)), surveyor_({}, {}) {
   config_.track_options.known_height = config_.height;
   config_.track_options.z_range = config_.z_range;
   for (const auto& [id, anchor] : config_.anchors) {
     anchor_ids_.push_back(id);
     anchor_positions_.push_back(anchor.position);
   }
+  surveyor_ = AnchorSurveyor(anchor_ids_, anchor_positions_);
+}
+
+void RangeFixer::survey(const std::vector<Corrected>& ranges, const AdmittedFiring& admitted, int marker) {
+  // The cameras' state of the tag's own robot, moved to the firing time by its velocity.
+  const auto seen = state_of_(marker);
+  if (!seen || !seen->seen_by_cameras) return;
+  const std::int64_t age = admitted.t_mono_ns - seen->t_mono_ns;
+  if (age > kSurveyAge || age < -kSurveyAge) return;
+  const double dt = 1e-9 * static_cast<double>(age);
+  const Eigen::Vector3d tag = seen->position + dt * seen->velocity;
+  const double moved = 0.5 * 1.0 * dt * dt;  // an unknown acceleration of up to 1 m/s^2
+  const double position_sigma = std::sqrt(seen->covariance.trace() / 3.0 + moved * moved);
+  for (const Corrected& c : ranges)
+    if (!c.mobile) surveyor_.add(c.anchor, tag, c.range_m, std::hypot(c.sigma_m, position_sigma));
 }
 
 std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& admitted) {
@@ -69,6 +84,7 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
     return std::nullopt;
   }
   const std::vector<Corrected> ranges = correct(admitted);
+  if (config_.track_camera_reference && state_of_) survey(ranges, admitted, tag->second);
   auto out =
       config_.track ? track(ranges, admitted, tag->second, t_real_ns) : solve(ranges, admitted, tag->second, t_real_ns);
   remember_firing(admitted, out);

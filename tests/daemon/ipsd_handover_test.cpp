@@ -147,6 +147,13 @@ TEST(IpsdHandover, ARobotLeavingTheCamerasIsCarriedByItsRangesAndHandedBack) {
   EXPECT_GT(status["fusion_held_for_cameras"].get<int>(), 100)
       << "the fixes under the camera were merged into its records";
   for (double step : handover) EXPECT_LT(step, 3 * 0.05) << "a hand-over jumped beyond 3 sigma of a range";
+  // The ranges taken under the camera are the daemon's survey of its anchors, in its status.
+  const auto& anchors = status["ranging"]["anchors"];
+  ASSERT_EQ(anchors.size(), 4u) << status["ranging"].dump();
+  for (const auto& a : anchors) EXPECT_GT(a["samples"].get<int>(), 20) << a.dump();
+  const fs::path said = dir / "status.txt";
+  ASSERT_EQ(test::run({test::bin("ips"), "status", "--socket", (dir / "status.sock").string()}, said), 0);
+  EXPECT_NE(test::read_file(said).find("anchor 1: "), std::string::npos) << test::read_file(said);
   fs::remove_all(dir);
 }
 

@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "ips/core/observation.h"
+#include "ips/input/anchor_survey.h"
 #include "ips/input/range_admission.h"
 #include "ips/input/ranging_settings.h"
 #include "ips/ranging/range_tracker.h"
@@ -87,6 +88,12 @@ class RangeFixer {
   const RangingConfig& config() const { return config_; }
   /// Every tag's track so far (ranging.track), by tag id.
   std::vector<RangeTrackSummary> tracks() const;
+  /// ranging.track.camera_reference: each anchor as the ranges taken where the cameras placed
+  /// the tag's robot (within kSurveyAge of the firing) see it (ips/input/anchor_survey.h).
+  std::vector<AnchorSurvey> anchor_surveys() const { return surveyor_.surveys(); }
+  /// (Camera frames reach fusion after a firing of the same instant: the state at hand is
+  /// 100-300 ms older than the firing; it is moved to the firing time by its velocity.)
+  static constexpr std::int64_t kSurveyAge = kCameraReferenceAge;
 
  private:
   /// One range of a firing, corrected and with its reference placed.
@@ -110,6 +117,8 @@ class RangeFixer {
   std::vector<Eigen::Vector3d> anchor_positions_;
   std::map<std::uint32_t, RangeTracker> trackers_;               // by tag
   std::map<std::uint32_t, std::int64_t> camera_reference_used_;  // by tag: the last camera state's time fed
+  AnchorSurveyor surveyor_;
+  void survey(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, int marker);
   /// A tag's recent firings (by firing counter), for the odometry of the next one.
   struct PastFiring {
     std::int64_t t_ns = 0;
