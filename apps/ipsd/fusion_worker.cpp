@@ -146,6 +146,7 @@ void FusionWorker::run() {
     const std::int64_t wait = period > 0 ? std::clamp<std::int64_t>(next_tick - now, 0, kPopTimeoutNs) : kPopTimeoutNs;
     CameraBatch batch;
     if (queue_.pop(batch, wait)) {
+      batch.t_fusion_ns = ips::monotonic_ns();  // how late camera frames arrive: fusion.camera_hold follows it
       // Each camera's own view of the fixed markers, before fusion mixes the cameras.
       if (fixed_ && !fixed_->empty() && batch.camera_index >= 0) log_events(fixed_->add(batch), rt->config);
       states.clear();
@@ -178,6 +179,7 @@ void FusionWorker::run() {
     counted_too_old = fusion.counters().too_old;
     stats_.held_for_cameras += fusion.counters().held_for_cameras - counted_held;
     counted_held = fusion.counters().held_for_cameras;
+    stats_.camera_hold_s = fusion.effective_camera_hold_s();
   }
 }
 

@@ -144,6 +144,7 @@ struct FusionStats {
   std::atomic<std::uint64_t> late{0};              ///< observations that arrived after a newer output of their marker
   std::atomic<std::uint64_t> too_old{0};           ///< observations dropped: older than fusion.history
   std::atomic<std::uint64_t> held_for_cameras{0};  ///< range fixes merged, not published: a camera had the marker
+  std::atomic<double> camera_hold_s{0.0};          ///< fusion.camera_hold as applied (longer where frames are late)
   LatencyWindow latency;                           ///< delivered -> sendto and capture -> sendto
   std::mutex outputs_mutex;
   std::vector<ips::OutputStats> outputs;

@@ -128,6 +128,7 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
   j["fusion_late"] = fusion.late.load();
   j["fusion_too_old"] = fusion.too_old.load();
   j["fusion_held_for_cameras"] = fusion.held_for_cameras.load();  // fusion.camera_hold
+  j["fusion_camera_hold_s"] = fusion.camera_hold_s.load();        // ... as applied: >= the configured
   j["queue_drops"] = queue_drops;
   const ips::ImageBufferPoolStats pool = ips::image_buffer_pool_stats();
   j["image_buffers"] = {{"reused", pool.reused},

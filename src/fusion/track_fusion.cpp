@@ -104,10 +104,21 @@ TrackFusion::TrackFusion(const TrackFusionOptions& options)
   if (options_.kalman) kalman_.emplace(options_.kalman_options);
 }
 
+// The time a history of this kind reaches back from: the cameras' from their newest frame,
+// the other sources' from the newest observation of any. Camera frames reach fusion later than
+// a range fix of the same instant (decoding, detection; much later on a busy machine) and must
+// not be dropped as old for that.
+std::int64_t TrackFusion::newest_of_kind(const Track& track, ObservationSource source) {
+  if (source != ObservationSource::kCamera) return track.newest_ns;
+  // No camera frame yet: the first is never too old (far in the past, without overflow).
+  return track.camera_newest_ns != INT64_MIN ? track.camera_newest_ns : INT64_MIN / 2;
+}
+
 void TrackFusion::prune(Track& track) const {
-  const std::int64_t oldest = track.newest_ns - to_ns(options_.history_s);
+  const std::int64_t history = to_ns(options_.history_s);
   for (auto it = track.by_camera.begin(); it != track.by_camera.end();) {
     auto& q = it->second;
+    const std::int64_t oldest = q.empty() ? 0 : newest_of_kind(track, q.front().source) - history;
     while (!q.empty() && q.front().t_mono_ns < oldest) q.pop_front();
     it = q.empty() ? track.by_camera.erase(it) : std::next(it);
   }
@@ -324,15 +335,19 @@ void TrackFusion::add(const FrameObservations& batch, const FusionMethod& method
   const std::int64_t t = batch.t_mono_ns;
   const std::int64_t history = to_ns(options_.history_s);
   // Older than every history: a track dropped for being idle must not restart in the past.
-  if (t < latest_ns_ - history) {
+  const bool camera = batch.camera_index >= 0;
+  if (t < (camera ? latest_camera_ns_ : latest_ns_) - history) {
     counters_.too_old += batch.observations.size();
     return;
   }
   latest_ns_ = std::max(latest_ns_, t);
+  if (camera) latest_camera_ns_ = std::max(latest_camera_ns_, t);
+  if (batch.camera_index >= 0 && batch.t_fusion_ns > 0) camera_lag_.add(t, batch.t_fusion_ns);
+  const std::int64_t hold = to_ns(effective_camera_hold_s());
   std::vector<int> seen;
   for (const WorldObservation& o : batch.observations) {
     Track& track = tracks_[o.id];
-    if (o.t_mono_ns < track.newest_ns - history) {
+    if (o.t_mono_ns < newest_of_kind(track, o.source) - history) {
       ++counters_.too_old;
       continue;
     }
@@ -357,8 +372,7 @@ void TrackFusion::add(const FrameObservations& batch, const FusionMethod& method
     const bool camera_saw_it_now =
         std::any_of(batch.observations.begin(), batch.observations.end(),
                     [&](const WorldObservation& o) { return o.id == id && o.source == ObservationSource::kCamera; });
-    if (!camera_saw_it_now && track.camera_newest_ns != INT64_MIN &&
-        track.camera_newest_ns >= t - to_ns(options_.camera_hold_s)) {
+    if (!camera_saw_it_now && track.camera_newest_ns != INT64_MIN && track.camera_newest_ns >= t - hold) {
       ++counters_.held_for_cameras;  // the cameras' next record carries it
       continue;
     }
@@ -369,7 +383,15 @@ void TrackFusion::add(const FrameObservations& batch, const FusionMethod& method
   }
   // Forget objects not seen for twice the history (bounded memory with changing ids).
   for (auto it = tracks_.begin(); it != tracks_.end();)
-    it = it->second.newest_ns < latest_ns_ - 2 * history ? tracks_.erase(it) : std::next(it);
+    it =
+        it->second.newest_ns < (it->second.camera_newest_ns != INT64_MIN ? latest_camera_ns_ : latest_ns_) - 2 * history
+            ? tracks_.erase(it)
+            : std::next(it);
+}
+
+double TrackFusion::effective_camera_hold_s() const {
+  if (options_.camera_hold_s <= 0) return 0.0;  // configured off: stays off
+  return std::max(options_.camera_hold_s, 1.5e-9 * static_cast<double>(camera_lag_.max_ns()));
 }
 
 void TrackFusion::predict_all(std::int64_t t, std::int64_t t_real, const FusionMethod& method,

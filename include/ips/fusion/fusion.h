@@ -82,6 +82,7 @@ struct FrameObservations {
   std::int64_t t_mono_ns = 0;  ///< capture time of the frame
   std::int64_t t_real_ns = 0;
   std::int64_t t_delivered_ns = 0;  ///< when the source delivered the frame, CLOCK_MONOTONIC
+  std::int64_t t_fusion_ns = 0;     ///< when fusion took it, CLOCK_MONOTONIC; 0 = not known
   std::vector<WorldObservation> observations;
 };
 

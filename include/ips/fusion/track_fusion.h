@@ -29,6 +29,7 @@
 
 #include <Eigen/Core>
 
+#include "ips/fusion/camera_lag.h"
 #include "ips/fusion/fusion.h"
 #include "ips/fusion/kalman.h"
 
@@ -55,7 +56,9 @@ struct TrackFusionOptions : FusionTimeWindows {
   /// firing of the same instant (capture, decode, detection take tens of ms), so publishing
   /// the ranges first would leave every camera record "late" and unpublished. Where the
   /// cameras lose the object, the other sources take over this long after their last sight.
-  /// Config: fusion.camera_hold.
+  /// Where camera frames reach fusion later than that (a busy machine; FrameObservations::
+  /// t_fusion_ns), the hold is 1.5 times their largest lag over the last 5 s instead
+  /// (effective_camera_hold_s). Config: fusion.camera_hold.
   double camera_hold_s = 0.5;
   bool kalman = false;  ///< constant-velocity Kalman filter per object on the output
   KalmanOptions kalman_options;
@@ -86,6 +89,8 @@ class TrackFusion {
   void continue_after(const TrackFusion& previous) {
     tracks_ = previous.tracks_;
     latest_ns_ = previous.latest_ns_;
+    latest_camera_ns_ = previous.latest_camera_ns_;
+    camera_lag_ = previous.camera_lag_;
   }
 
   /// Fused state of every object seen within history_s before `t_mono_ns`, predicted to that
@@ -95,6 +100,8 @@ class TrackFusion {
                    std::vector<FusedMarker>& out);
 
   const TrackFusionCounters& counters() const { return counters_; }
+  /// camera_hold_s, or longer where the cameras' frames reach fusion later than it.
+  double effective_camera_hold_s() const;
   std::size_t tracks() const { return tracks_.size(); }
   const TrackFusionOptions& options() const { return options_; }
 
@@ -128,11 +135,14 @@ class TrackFusion {
   std::optional<FusedMarker> state_at(int id, const Track& track, std::int64_t t_mono_ns, std::int64_t t_real_ns,
                                       std::int64_t window_ns, const FusionMethod& method) const;
   void finish(FusedMarker& f, Track& track);
+  static std::int64_t newest_of_kind(const Track& track, ObservationSource source);
   void prune(Track& track) const;
 
   TrackFusionOptions options_;
   std::map<int, Track> tracks_;
-  std::int64_t latest_ns_ = 0;  ///< newest capture time fed
+  std::int64_t latest_ns_ = 0;         ///< newest capture time fed
+  std::int64_t latest_camera_ns_ = 0;  ///< newest capture time of a camera frame fed (cameras lag the others)
+  CameraLag camera_lag_;
   std::optional<MarkerTracker> kalman_;
   /// Follows every object on every record (cameras at camera_sigma_m, other sources at their
   /// covariance); where no camera sees it, what is published is this filter's state: noisy
