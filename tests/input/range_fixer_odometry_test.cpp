@@ -10,17 +10,13 @@
 #include <gtest/gtest.h>
 
 #include "ips/input/range_fixer.h"
+#include "ranging_lab.h"
 
 namespace ips {
 namespace {
 
 RangingConfig lab(bool track) {
-  RangingConfig c;
-  c.anchors[1].position = {0, 0, 2.5};
-  c.anchors[2].position = {4, 0, 1.0};
-  c.anchors[3].position = {4, 3, 2.5};
-  c.anchors[4].position = {0, 3, 1.0};
-  c.tag_markers[7] = 20;
+  RangingConfig c = test::ranging_lab();
   c.height = 0.3;
   c.track = track;
   return c;

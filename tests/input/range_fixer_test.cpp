@@ -10,19 +10,12 @@
 #include <gtest/gtest.h>
 
 #include "ips/ranging/speed_of_sound.h"
+#include "ranging_lab.h"
 
 namespace ips {
 namespace {
 
-RangingConfig lab() {
-  RangingConfig c;
-  c.anchors[1].position = {0, 0, 2.5};
-  c.anchors[2].position = {4, 0, 1.0};
-  c.anchors[3].position = {4, 3, 2.5};
-  c.anchors[4].position = {0, 3, 1.0};
-  c.tag_markers[7] = 20;
-  return c;
-}
+RangingConfig lab() { return test::ranging_lab(); }
 
 AdmittedFiring firing_at(const RangingConfig& c, const Eigen::Vector3d& tag) {
   AdmittedFiring f;

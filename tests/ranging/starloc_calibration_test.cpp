@@ -34,27 +34,16 @@ struct Anchor {
 // (>= 6 anchors), least squares; the 3-D error against the tag's position at the last of them.
 std::vector<double> fix_errors(const StarLocSequence& seq, double from, double to, const std::map<int, Anchor>& anchors,
                                bool dataset_calibration) {
-  const auto& rows = seq.rows;
   std::vector<double> errors;
-  std::size_t end = 0;
-  for (double t = from + 0.1; t < to; t += 0.1) {
-    while (end < rows.size() && rows[end].t <= t) ++end;
-    for (int tag : {1, 2}) {
-      std::map<int, const StarLocRow*> latest;
-      for (std::size_t i = end; i-- > 0 && rows[i].t > t - 0.07;)
-        if (rows[i].tag == tag && !latest.count(rows[i].anchor)) latest[rows[i].anchor] = &rows[i];
-      if (latest.size() < 6) continue;
-      std::vector<RangeToAnchor> ranges;
-      const StarLocRow* last = nullptr;
-      for (const auto& [id, r] : latest) {
-        const Anchor& a = anchors.at(id);
-        ranges.push_back({a.position, dataset_calibration ? r->range_calib : r->range - a.bias, 0.1});
-        if (!last || r->t > last->t) last = r;
-      }
-      const RangeFix fix = fix_least_squares(ranges);
-      if (fix.ok) errors.push_back((fix.position - last->truth).norm());
+  for_each_round(seq, from, to, [&](const std::map<int, const StarLocRow*>& latest, const StarLocRow& newest) {
+    std::vector<RangeToAnchor> ranges;
+    for (const auto& [id, r] : latest) {
+      const Anchor& a = anchors.at(id);
+      ranges.push_back({a.position, dataset_calibration ? r->range_calib : r->range - a.bias, 0.1});
     }
-  }
+    const RangeFix fix = fix_least_squares(ranges);
+    if (fix.ok) errors.push_back((fix.position - newest.truth).norm());
+  });
   return errors;
 }
 

@@ -97,4 +97,26 @@ inline void load_starloc(StarLocSequence& seq, bool& present) {
   ASSERT_EQ(anchor_of.size(), 8u);
 }
 
+/// Every 100 ms of [from, to) and for each of the two tags: its latest range to each anchor
+/// within the last 70 ms (one round of the 8 anchors), if there are >= 6, with the newest of them
+/// (whose truth is the tag's position then): `round(latest by anchor id, newest)`.
+template <typename Round>
+void for_each_round(const StarLocSequence& seq, double from, double to, Round round) {
+  const auto& rows = seq.rows;
+  std::size_t end = 0;
+  for (double t = from + 0.1; t < to; t += 0.1) {
+    while (end < rows.size() && rows[end].t <= t) ++end;
+    for (int tag : {1, 2}) {
+      std::map<int, const StarLocRow*> latest;
+      for (std::size_t i = end; i-- > 0 && rows[i].t > t - 0.07;)
+        if (rows[i].tag == tag && !latest.count(rows[i].anchor)) latest[rows[i].anchor] = &rows[i];
+      if (latest.size() < 6) continue;
+      const StarLocRow* newest = nullptr;
+      for (const auto& [anchor, r] : latest)
+        if (!newest || r->t > newest->t) newest = r;
+      round(latest, *newest);
+    }
+  }
+}
+
 }  // namespace ips

@@ -41,28 +41,19 @@ TEST(StarLoc, LeastSquaresOnRealUwbRangesAgainstMotionCapture) {
   // round of the 8 anchors); the truth is the tag's position at the last of them.
   const auto solve_all = [&](bool calibrated, bool height_known, std::vector<double>& horizontal,
                              std::vector<double>& vertical) {
-    std::size_t end = 0;
-    for (double t = 0.1; t < rows.back().t; t += 0.1) {
-      while (end < rows.size() && rows[end].t <= t) ++end;
-      for (int tag : {1, 2}) {
-        std::map<int, const StarLocRow*> latest;
-        for (std::size_t i = end; i-- > 0 && rows[i].t > t - 0.07;)
-          if (rows[i].tag == tag && !latest.count(rows[i].anchor)) latest[rows[i].anchor] = &rows[i];
-        if (latest.size() < 6) continue;
-        std::vector<RangeToAnchor> ranges;
-        const StarLocRow* last = nullptr;
-        for (const auto& [anchor, r] : latest) {
-          ranges.push_back({anchor_of[anchor], calibrated ? r->range_calib : r->range, r->std_m > 0 ? r->std_m : 0.1});
-          if (!last || r->t > last->t) last = r;
-        }
-        RangeSolveOptions options;
-        if (height_known) options.known_height = last->truth.z();
-        const RangeFix fix = fix_least_squares(ranges, options);
-        ASSERT_TRUE(fix.ok) << fix.why;
-        horizontal.push_back((fix.position - last->truth).head<2>().norm());
-        vertical.push_back(std::abs(fix.position.z() - last->truth.z()));
-      }
-    }
+    for_each_round(seq, 0.0, rows.back().t,
+                   [&](const std::map<int, const StarLocRow*>& latest, const StarLocRow& last) {
+                     std::vector<RangeToAnchor> ranges;
+                     for (const auto& [anchor, r] : latest)
+                       ranges.push_back(
+                           {anchor_of[anchor], calibrated ? r->range_calib : r->range, r->std_m > 0 ? r->std_m : 0.1});
+                     RangeSolveOptions options;
+                     if (height_known) options.known_height = last.truth.z();
+                     const RangeFix fix = fix_least_squares(ranges, options);
+                     ASSERT_TRUE(fix.ok) << fix.why;
+                     horizontal.push_back((fix.position - last.truth).head<2>().norm());
+                     vertical.push_back(std::abs(fix.position.z() - last.truth.z()));
+                   });
   };
   std::vector<double> h_cal, v_cal, h_raw, v_raw, h_known, v_known;
   solve_all(true, false, h_cal, v_cal);
