@@ -155,6 +155,9 @@ def decode(data: bytes) -> dict:
                     b["vx"], b["vy"], b["vz"] = vx, vy, vz
                 if bflags & BODY_HAS_YAW_RATE:
                     b["yaw_rate"] = yaw_rate
+            if sources and body_size >= BODY.size + BODY_VELOCITY.size + 4:  # 120 bytes: sources at 116
+                (bits,) = struct.unpack_from("<H", data, off + BODY.size + BODY_VELOCITY.size)
+                b["sources"] = [n for k, n in enumerate(SOURCE_NAMES) if bits >> k & 1]
             if not all(math.isfinite(b[k]) for k in ("x", "y", "z", "yaw", "qw", "qx", "qy", "qz", "vx", "vy", "vz",
                                                       "yaw_rate") if k in b):
                 raise Malformed("non-finite body pose")
@@ -241,10 +244,15 @@ def main() -> int:
                     line += f"  v ({m['vx']:.2f}, {m['vy']:.2f}) m/s"
                 print(line, flush=True)
             for b in d.get("bodies", []):
-                yaw = f"{math.degrees(b['yaw']):7.1f} deg" if b["has_yaw"] else "      - deg"
+                held = not b["has_yaw"] and "ranges" in b.get("sources", [])  # ranges alone: yaw held
+                yaw = (f"{math.degrees(b['yaw']):7.1f} deg" + (" (held)" if held else "")
+                       if b["has_yaw"] or held else "      - deg")
                 print(f"seq {d['seq']:6d}  body {b['name']}  x {b['x']:7.3f}  y {b['y']:7.3f}  z {b['z']:6.3f} m  "
                       f"yaw {yaw}  q ({b['qw']:.3f} {b['qx']:.3f} {b['qy']:.3f} {b['qz']:.3f})  "
-                      f"ids {','.join(str(i) for i in b['ids'])}  cams 0x{b['cameras']:02x}  age {age_ms:6.1f} ms"
+                      f"ids {','.join(str(i) for i in b['ids'])}  cams 0x{b['cameras']:02x}"
+                      + (" + ranges" if b["cameras"] and "ranges" in b.get("sources", []) else
+                         " ranges" if "ranges" in b.get("sources", []) else "")
+                      + f"  age {age_ms:6.1f} ms"
                       + (f"  v ({b['vx']:.2f}, {b['vy']:.2f}) m/s" if "vx" in b else "")
                       + (f"  yaw rate {math.degrees(b['yaw_rate']):.1f} deg/s" if "yaw_rate" in b else ""),
                       flush=True)

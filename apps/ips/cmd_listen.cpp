@@ -178,11 +178,15 @@ int run_listen(ListenOptions o) {
       for (auto& [name, v] : bodies) {
         const auto& b = v.last;
         std::printf("body %-12s  x %8.3f  y %8.3f  z %7.3f m  yaw ", name.c_str(), b.x, b.y, b.z);
-        if (b.has_yaw)
+        const bool held = !b.has_yaw && (b.sources & IPS_WIRE_SOURCE_RANGES);
+        if (b.has_yaw || held)
           std::printf("%7.1f deg", b.yaw * 180.0 / std::numbers::pi);
         else
           std::printf("      - deg");
-        std::printf("  q (%.3f %.3f %.3f %.3f)  cams 0x%02x  ids", b.qw, b.qx, b.qy, b.qz, b.camera_mask);
+        std::printf("  q (%.3f %.3f %.3f %.3f)  cams 0x%02x", b.qw, b.qx, b.qy, b.qz, b.camera_mask);
+        if (b.sources & IPS_WIRE_SOURCE_RANGES) std::printf(b.camera_mask ? " +ranges" : " ranges");
+        if (held) std::printf(" (yaw held)");
+        std::printf("  ids");
         for (const auto id : b.ids) std::printf(" %u", id);
         if (b.id_count > b.ids.size()) std::printf(" +%zu", b.id_count - b.ids.size());
         print_rate_age(v.arrivals, v.capture_real_ns, now, real);

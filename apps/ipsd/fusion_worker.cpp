@@ -51,7 +51,11 @@ void log_events(const std::vector<ips::FixedMarkerEvent>& events, const ips::Dae
 }
 
 ips::BodyTrackOptions body_options(const ips::FusionConfig& c) {
-  return {static_cast<const ips::FusionTimeWindows&>(c)};
+  ips::BodyTrackOptions o;
+  static_cast<ips::FusionTimeWindows&>(o) = c;
+  o.camera_sigma_m = c.camera_sigma_m;
+  o.between_cameras_process_noise = c.between_cameras_process_noise;
+  return o;
 }
 
 // A reload rebuilds the body fusion only when the bodies or the options it uses changed.
@@ -107,7 +111,7 @@ void FusionWorker::run() {
   std::int64_t next_tick = 0;  // fixed-rate output: next publish time, CLOCK_MONOTONIC
   std::vector<ips::FusedMarker> states;
   std::optional<ips::BodyTrack> bodies = make_body_track(rt->config);  // docs/bodies.md
-  std::uint64_t counted_body_late = 0;
+  std::uint64_t counted_body_late = 0, counted_body_held = 0;
   std::vector<ips::FusedBody> body_states;
   if (fixed_) fixed_->configure(fixed_positions(rt->config.markers), monitor_options(rt->config.fusion));
 
@@ -129,8 +133,11 @@ void FusionWorker::run() {
       const auto& old_c = rt->config;
       const auto& new_c = latest->config;
       if (!same_bodies(old_c.bodies, new_c.bodies) || body_options(old_c.fusion) != body_options(new_c.fusion)) {
-        if (bodies) stats_.late += bodies->late() - counted_body_late;
-        counted_body_late = 0;
+        if (bodies) {
+          stats_.late += bodies->late() - counted_body_late;
+          stats_.held_for_cameras += bodies->held_for_cameras() - counted_body_held;
+        }
+        counted_body_late = counted_body_held = 0;
         auto fresh = make_body_track(new_c);
         if (fresh && bodies) fresh->continue_after(*bodies);
         bodies = std::move(fresh);
@@ -154,6 +161,9 @@ void FusionWorker::run() {
       body_states.clear();
       if (bodies && !batch.bodies.empty() && batch.camera_index >= 0)
         bodies->add(batch.camera_index, batch.t_mono_ns, batch.t_real_ns, batch.bodies, *rt->fusion, body_states);
+      if (bodies)  // ranging tags on bodies (ranging.tags[].body)
+        for (const BodyFix& b : batch.body_fixes)
+          bodies->add_fix(b.body, b.offset, b.fix, fusion.effective_camera_hold_s(), body_states);
       if (period == 0) publish(states, body_states, batch.t_mono_ns, batch.t_real_ns, batch.t_delivered_ns, *rt);
     }
     if (const std::int64_t woke = ips::monotonic_ns(); period > 0 && woke >= next_tick) {
@@ -172,6 +182,8 @@ void FusionWorker::run() {
     if (bodies) {
       stats_.late += bodies->late() - counted_body_late;
       counted_body_late = bodies->late();
+      stats_.held_for_cameras += bodies->held_for_cameras() - counted_body_held;
+      counted_body_held = bodies->held_for_cameras();
     }
     stats_.late += fusion.counters().late - counted_late;
     stats_.too_old += fusion.counters().too_old - counted_too_old;
@@ -244,10 +256,16 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
     b.vz = f.velocity.z();
     b.has_yaw_rate = f.has_yaw_rate;
     b.yaw_rate = f.yaw_rate;
+    b.sources = f.sources;
+    b.covariance = {f.covariance(0, 0), f.covariance(0, 1), f.covariance(0, 2),
+                    f.covariance(1, 1), f.covariance(1, 2), f.covariance(2, 2)};
     d.bodies.push_back(std::move(b));
   }
   // Only the range input reads these (robots as mobile anchors): no lock per update without it.
-  if (latest_ && rt.config.ranging.enabled()) latest_->update(states);
+  if (latest_ && rt.config.ranging.enabled()) {
+    latest_->update(states);
+    latest_->update(bodies);
+  }
   rt.publisher->publish(d);
   if (web_) web_->publish(d);                     // a copy into a bounded inbox; never waits for browsers
   const std::int64_t sent = ips::monotonic_ns();  // after the last sendto of the update

@@ -1,12 +1,15 @@
-// Every marker's latest published state, kept by the fusion thread for the range input: a
-// robot the cameras see is a mobile anchor for another robot's tag that ranges to it.
+// Every marker's and body's latest published state, kept by the fusion thread for the range
+// input: a robot the cameras see is a mobile anchor for another robot's tag that ranges to it,
+// and the reference of its own tag's track.
 #pragma once
 
 #include <map>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "ips/body/body_estimate.h"
 #include "ips/fusion/fusion.h"
 #include "ips/input/range_fixer.h"
 
@@ -27,17 +30,40 @@ class LatestStates {
       r.seen_by_cameras = f.camera_mask != 0;
     }
   }
-  /// Marker `id`'s latest state, if it was ever published (range input's thread).
-  std::optional<ips::MobileReference> of(int id) const {
+  void update(const std::vector<ips::FusedBody>& bodies) {
     std::lock_guard lock(mutex_);
-    const auto it = states_.find(id);
-    if (it == states_.end()) return std::nullopt;
-    return it->second;
+    for (const auto& b : bodies) {
+      auto [it, fresh] = bodies_.try_emplace(b.name, b);
+      if (!fresh && b.t_mono_ns >= it->second.t_mono_ns) it->second = b;
+    }
+  }
+  /// Where `tag` was at its carrier's latest published state, if ever published (range input's
+  /// thread). On a body: the body's origin plus the tag's offset turned by the body's
+  /// orientation (held from its last measured one when ranges alone placed it); its velocity
+  /// includes the yaw rate's share at the offset.
+  std::optional<ips::MobileReference> of(const ips::RangingTag& tag) const {
+    std::lock_guard lock(mutex_);
+    if (!tag.on_body()) {
+      const auto it = states_.find(tag.marker);
+      if (it == states_.end()) return std::nullopt;
+      return it->second;
+    }
+    const auto it = bodies_.find(tag.body);
+    if (it == bodies_.end()) return std::nullopt;
+    const ips::FusedBody& b = it->second;
+    ips::MobileReference origin;
+    origin.position = b.pose.position;
+    if (b.has_velocity) origin.velocity = b.velocity;
+    origin.covariance = b.covariance;
+    origin.t_mono_ns = b.t_mono_ns;
+    origin.seen_by_cameras = b.camera_mask != 0;
+    return ips::point_on_body(origin, b.pose.q, b.has_yaw_rate ? b.yaw_rate : 0.0, tag.offset);
   }
 
  private:
   mutable std::mutex mutex_;
-  std::map<int, ips::MobileReference> states_;  // bounded by the marker ids published
+  std::map<int, ips::MobileReference> states_;    // bounded by the marker ids published
+  std::map<std::string, ips::FusedBody> bodies_;  // bounded by the configured bodies
 };
 
 }  // namespace ipsd

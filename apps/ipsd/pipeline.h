@@ -39,8 +39,16 @@ struct Runtime {
 
 /// What a camera thread hands the fusion thread per frame: the plain markers (as
 /// ips::FrameObservations) and the views of rigid bodies (their markers are not in the former).
+/// A fix of a ranging tag carried by a body (ranging.tags[].body): BodyTrack::add_fix.
+struct BodyFix {
+  std::string body;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< the tag in the body's frame
+  ips::WorldObservation fix;
+};
+
 struct CameraBatch : ips::FrameObservations {
   std::vector<ips::BodyObservation> bodies;
+  std::vector<BodyFix> body_fixes;  ///< the range input's (camera_index -1)
 };
 
 /// Loads the model file, the intrinsics, resolves the fusion method and opens the outputs

@@ -5,7 +5,7 @@
 namespace ipsd {
 
 RangeLink::RangeLink(const ips::RangingConfig& config, const LatestStates& latest)
-    : config_(config), fixer_(config, [&latest](int id) { return latest.of(id); }) {
+    : config_(config), fixer_(config, [&latest](const ips::RangingTag& tag) { return latest.of(tag); }) {
   input_ = std::make_unique<ips::RangeInput>(config.input, "ranging",
                                              [this](ips::AdmittedFiring&& f) { on_firing(std::move(f)); });
 }
@@ -31,7 +31,10 @@ void RangeLink::on_firing(ips::AdmittedFiring&& firing) {
   batch.camera_index = -1;  // not a camera: fusion keys the fix by its source and tag
   batch.t_mono_ns = firing.t_mono_ns;
   batch.t_real_ns = t_real;
-  batch.observations.push_back(std::move(*observation));
+  if (const ips::RangingTag& tag = config_.tags.at(firing.firing.tag); tag.on_body())
+    batch.body_fixes.push_back({tag.body, tag.offset, std::move(*observation)});
+  else
+    batch.observations.push_back(std::move(*observation));
   queue_->push(std::move(batch));
 }
 

@@ -1,13 +1,36 @@
 // Asynchronous body fusion for the daemon (see body_track.h).
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "ips/body/body_track.h"
 
 namespace ips {
 
+namespace {
+
+KalmanOptions between_cameras_options(const BodyTrackOptions& o) {
+  KalmanOptions k;
+  k.process_noise = o.between_cameras_process_noise;
+  k.reset_after_s = 1.0;  // a fix every 150 ms at the least
+  return k;
+}
+
+FusedMarker as_marker(int body, const Eigen::Vector3d& p, std::int64_t t_ns) {
+  FusedMarker m;
+  m.id = body;
+  m.p_world = p;
+  m.t_mono_ns = t_ns;
+  return m;
+}
+
+}  // namespace
+
 BodyTrack::BodyTrack(std::vector<BodyDef> bodies, const BodyTrackOptions& options)
-    : estimator_(std::move(bodies)), options_(options), tracks_(estimator_.bodies().size()) {}
+    : estimator_(std::move(bodies)),
+      options_(options),
+      tracks_(estimator_.bodies().size()),
+      between_cameras_(between_cameras_options(options)) {}
 
 Eigen::Vector3d BodyTrack::velocity(const Track& track) {
   // Newest minus oldest published position within the span: enough to move a view forward by
@@ -60,7 +83,6 @@ void BodyTrack::add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_rea
                     std::vector<FusedBody>& out) {
   const auto window_ns = static_cast<std::int64_t>(options_.window_s * 1e9);
   const auto history_ns = static_cast<std::int64_t>(options_.history_s * 1e9);
-  const auto span_ns = static_cast<std::int64_t>(options_.velocity_span_s * 1e9);
   std::map<int, std::vector<BodyObservation>> by_body;
   for (const auto& o : observations)
     if (o.body >= 0 && o.body < static_cast<int>(tracks_.size())) by_body[o.body].push_back(o);
@@ -111,14 +133,67 @@ void BodyTrack::add(int camera_index, std::int64_t t_mono_ns, std::int64_t t_rea
     FusedBody& f = fused.front();
     f.t_mono_ns = t_mono_ns;
     f.t_real_ns = t_real_ns;
-    track.path.push_back({t_mono_ns, f.pose.position, f.has_yaw, f.pose.yaw});
-    while (track.path.size() > 1 && track.path.front().t_ns < t_mono_ns - span_ns) track.path.pop_front();
-    set_velocity(track, f);
-    track.published = true;
-    track.last = f;
-    out.push_back(std::move(f));
+    const double n = std::max(1, std::popcount(f.camera_mask));
+    const double variance = options_.camera_sigma_m * options_.camera_sigma_m / n;
+    f.covariance = (variance + f.spread * f.spread) * Eigen::Matrix3d::Identity();
+    if (track.ranged) {  // the filter that carries the body where only its tag places it
+      FusedMarker m = as_marker(b, f.pose.position, t_mono_ns);
+      between_cameras_.update(m, Eigen::Vector3d::Constant(variance));
+    }
+    publish(track, f, out);
   }
   std::sort(out.begin(), out.end(), [](const FusedBody& a, const FusedBody& b) { return a.body < b.body; });
+}
+
+void BodyTrack::publish(Track& track, FusedBody& f, std::vector<FusedBody>& out) const {
+  const auto span_ns = static_cast<std::int64_t>(options_.velocity_span_s * 1e9);
+  track.path.push_back({f.t_mono_ns, f.pose.position, f.has_yaw, f.pose.yaw});
+  while (track.path.size() > 1 && track.path.front().t_ns < f.t_mono_ns - span_ns) track.path.pop_front();
+  set_velocity(track, f);
+  track.published = true;
+  track.last = f;
+  out.push_back(f);
+}
+
+void BodyTrack::add_fix(const std::string& name, const Eigen::Vector3d& offset, const WorldObservation& fix,
+                        double camera_hold_s, std::vector<FusedBody>& out) {
+  const auto& defs = bodies();
+  const auto def = std::find_if(defs.begin(), defs.end(), [&](const BodyDef& b) { return b.name == name; });
+  if (def == defs.end()) return;
+  const auto index = static_cast<std::size_t>(def - defs.begin());
+  Track& track = tracks_[index];
+  const std::int64_t t = fix.t_mono_ns;
+  if (track.published && t < track.last.t_mono_ns) {
+    ++late_;
+    return;
+  }
+  // The cameras place this body, or did a moment ago and their frames are still on their way:
+  // they publish it (a fix is 100 times coarser than they are).
+  if (track.newest_ns > 0 && t - track.newest_ns <= static_cast<std::int64_t>(camera_hold_s * 1e9)) {
+    ++held_for_cameras_;
+    return;
+  }
+  FusedBody f;
+  f.body = static_cast<int>(index);
+  f.name = name;
+  if (track.published) {  // the heading held: ranges say nothing of it
+    f.pose.q = track.last.pose.q;
+    f.pose.yaw = track.last.pose.yaw;
+  }
+  track.ranged = true;
+  FusedMarker m = as_marker(static_cast<int>(index), fix.p_world - f.pose.q * offset, t);
+  between_cameras_.update(m, fix.covariance.diagonal());
+  f.pose.position = m.p_world;
+  f.has_yaw = false;
+  f.camera_mask = 0;
+  f.sources = source_bit(ObservationSource::kRanges);
+  f.covariance = m.covariance;
+  f.t_mono_ns = t;
+  f.t_real_ns = fix.t_real_ns;
+  publish(track, f, out);
+  // The filter's velocity, not the path's mean over the span (it smooths the fixes' noise).
+  out.back().velocity = track.last.velocity = m.velocity;
+  out.back().has_velocity = track.last.has_velocity = m.has_velocity;
 }
 
 void BodyTrack::continue_after(const BodyTrack& previous) {

@@ -3,6 +3,7 @@
 // watchdog, model_file).
 #include "ips/config/config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -97,10 +98,26 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   if (r.has("web")) parse_web(r.node("web"), file, c.web);
   if (r.has("ranging")) {
     c.ranging = parse_ranging(r.node("ranging"), file);
-    for (const auto& [tag, marker] : c.ranging.tag_markers)
-      if (c.markers.ids.count(marker) && c.markers.ids.at(marker).fixed)
-        r.fail(root["ranging"]["tags"], "ranging.tags",
-               "tag " + std::to_string(tag) + "'s marker " + std::to_string(marker) + " is a fixed marker");
+    const YAML::Node tags = root["ranging"]["tags"];
+    for (const auto& [id, tag] : c.ranging.tags) {
+      const std::string name = "tag " + std::to_string(id);
+      if (tag.on_body()) {
+        const std::string& body =
+            tag.body;  // (a structured binding cannot be captured before C++20's P1091 in clang 14)
+        if (std::none_of(c.bodies.begin(), c.bodies.end(), [&](const BodyDef& b) { return b.name == body; }))
+          r.fail(tags, "ranging.tags", name + "'s body '" + tag.body + "' is not in bodies:");
+        continue;
+      }
+      if (c.markers.ids.count(tag.marker) && c.markers.ids.at(tag.marker).fixed)
+        r.fail(tags, "ranging.tags", name + "'s marker " + std::to_string(tag.marker) + " is a fixed marker");
+      // A body's marker is published inside its body only: its fixes would never be seen.
+      for (const BodyDef& b : c.bodies)
+        for (const auto& m : b.markers)
+          if (m.id == tag.marker)
+            r.fail(tags, "ranging.tags",
+                   name + "'s marker " + std::to_string(tag.marker) + " belongs to body '" + b.name +
+                       "': give the tag `body: " + b.name + "` and its `offset` in the body's frame");
+    }
   }
 
   if (r.has("processing")) {

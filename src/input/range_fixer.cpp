@@ -11,6 +11,15 @@
 
 namespace ips {
 
+MobileReference point_on_body(const MobileReference& origin, const Eigen::Quaterniond& orientation, double yaw_rate,
+                              const Eigen::Vector3d& offset) {
+  MobileReference r = origin;
+  const Eigen::Vector3d arm = orientation * offset;
+  r.position += arm;
+  r.velocity += Eigen::Vector3d(0, 0, yaw_rate).cross(arm);
+  return r;
+}
+
 RangeFixer::RangeFixer(RangingConfig config, StateOf state_of)
     : config_(std::move(config)), state_of_(std::move(state_of)), surveyor_({}, {}) {
   config_.track_options.known_height = config_.height;
@@ -22,18 +31,18 @@ RangeFixer::RangeFixer(RangingConfig config, StateOf state_of)
   surveyor_ = AnchorSurveyor(anchor_ids_, anchor_positions_);
 }
 
-void RangeFixer::survey(const std::vector<Corrected>& ranges, const AdmittedFiring& admitted, int marker) {
+void RangeFixer::survey(const std::vector<Corrected>& ranges, const AdmittedFiring& admitted, const RangingTag& tag) {
   // The cameras' state of the tag's own robot, moved to the firing time by its velocity.
-  const auto seen = state_of_(marker);
+  const auto seen = state_of_(tag);
   if (!seen || !seen->seen_by_cameras) return;
   const std::int64_t age = admitted.t_mono_ns - seen->t_mono_ns;
   if (age > kSurveyAge || age < -kSurveyAge) return;
   const double dt = 1e-9 * static_cast<double>(age);
-  const Eigen::Vector3d tag = seen->position + dt * seen->velocity;
+  const Eigen::Vector3d at = seen->position + dt * seen->velocity;
   const double moved = 0.5 * 1.0 * dt * dt;  // an unknown acceleration of up to 1 m/s^2
   const double position_sigma = std::sqrt(seen->covariance.trace() / 3.0 + moved * moved);
   for (const Corrected& c : ranges)
-    if (!c.mobile) surveyor_.add(c.anchor, tag, c.range_m, std::hypot(c.sigma_m, position_sigma));
+    if (!c.mobile) surveyor_.add(c.anchor, at, c.range_m, std::hypot(c.sigma_m, position_sigma));
 }
 
 std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& admitted) {
@@ -44,9 +53,9 @@ std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& adm
       config_.temperature_c ? ultrasound_range_scale(*config_.temperature_c, config_.assumed_speed_of_sound) : 1.0;
   for (const RangeEntry& e : f.entries) {
     if (e.reference_is_tag) {
-      const auto other = config_.tag_markers.find(e.reference);
+      const auto other = config_.tags.find(e.reference);
       std::optional<MobileReference> state;
-      if (other != config_.tag_markers.end() && state_of_) state = state_of_(other->second);
+      if (other != config_.tags.end() && state_of_) state = state_of_(other->second);
       const std::int64_t age = state ? admitted.t_mono_ns - state->t_mono_ns : 0;
       if (!state || age > RangeFixer::kMobileReferenceAge || age < -RangeFixer::kMobileReferenceAge) {
         ++counters_.mobile_references_unknown;
@@ -78,8 +87,8 @@ std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& adm
 }
 
 std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, std::int64_t t_real_ns) {
-  const auto tag = config_.tag_markers.find(admitted.firing.tag);
-  if (tag == config_.tag_markers.end()) {  // admission takes configured tags only
+  const auto tag = config_.tags.find(admitted.firing.tag);
+  if (tag == config_.tags.end()) {  // admission takes configured tags only
     ++counters_.failed["unknown_tag"];
     return std::nullopt;
   }
@@ -115,7 +124,8 @@ double RangeFixer::odometry_sigma(const RangeFiring& firing) {
 }
 
 std::optional<WorldObservation> RangeFixer::solve(const std::vector<Corrected>& corrected,
-                                                  const AdmittedFiring& admitted, int marker, std::int64_t t_real_ns) {
+                                                  const AdmittedFiring& admitted, const RangingTag& tag,
+                                                  std::int64_t t_real_ns) {
   std::vector<RangeToAnchor> ranges;
   ranges.reserve(corrected.size() + 1);
   for (const Corrected& c : corrected)
@@ -147,18 +157,19 @@ std::optional<WorldObservation> RangeFixer::solve(const std::vector<Corrected>& 
     return std::nullopt;
   }
   ++counters_.fixes;
-  return range_fix_observation(fix, marker, static_cast<int>(admitted.firing.tag), admitted.t_mono_ns, t_real_ns);
+  return range_fix_observation(fix, tag.marker, static_cast<int>(admitted.firing.tag), admitted.t_mono_ns, t_real_ns);
 }
 
 std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& corrected,
-                                                  const AdmittedFiring& admitted, int marker, std::int64_t t_real_ns) {
+                                                  const AdmittedFiring& admitted, const RangingTag& tag,
+                                                  std::int64_t t_real_ns) {
   RangeTracker& tracker =
       trackers_.try_emplace(admitted.firing.tag, anchor_positions_, config_.track_options).first->second;
   const std::int64_t t = admitted.t_mono_ns;
   // The cameras' view of this tag's own robot, once per camera-placed state: a position
   // measurement at its own time (the track applies it in its place among the ranges).
   if (config_.track_camera_reference && state_of_) {
-    const auto seen = state_of_(marker);
+    const auto seen = state_of_(tag);
     std::int64_t& used_ns = camera_reference_used_[admitted.firing.tag];
     if (seen && seen->seen_by_cameras && seen->t_mono_ns > used_ns &&
         std::abs(t - seen->t_mono_ns) <= kCameraReferenceAge) {
@@ -197,7 +208,7 @@ std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& 
   fix.position = state->position;
   fix.covariance = state->covariance;
   ++counters_.fixes;
-  return range_fix_observation(fix, marker, static_cast<int>(admitted.firing.tag), t, t_real_ns);
+  return range_fix_observation(fix, tag.marker, static_cast<int>(admitted.firing.tag), t, t_real_ns);
 }
 
 std::vector<RangeTrackSummary> RangeFixer::tracks() const {

@@ -18,6 +18,7 @@
 #include "ips/core/clock.h"
 #include "ips/core/error.h"
 #include "ips/fusion/kalman.h"
+#include "ips/output/wire.h"
 
 namespace ips {
 
@@ -102,12 +103,17 @@ void MavlinkSink::publish(const Datagram& update) {
         break;
       }
     // A marker on a rigid body is published as the body (version 2): the vehicle then gets the
-    // body's pose (origin, heading) from every update its marker contributed to with a known yaw.
+    // body's pose (origin, heading) from every update its marker contributed to with a known
+    // yaw, and from the updates where ranges alone placed the body (heading held, said by the
+    // covariance as for a marker; those records name no marker, the vehicle's body does).
     for (const BodyRecord& b : update.bodies) {
       if (sent) break;
-      if (!b.has_yaw ||
-          std::find(b.ids.begin(), b.ids.end(), static_cast<std::uint32_t>(v.config.marker)) == b.ids.end())
-        continue;
+      const bool held = !b.has_yaw && (b.sources & IPS_WIRE_SOURCE_RANGES) != 0;
+      const bool ours =
+          std::find(b.ids.begin(), b.ids.end(), static_cast<std::uint32_t>(v.config.marker)) != b.ids.end() ||
+          (held && v.body == b.name);
+      if (!ours || (!b.has_yaw && !held)) continue;
+      v.body = b.name;
       MarkerRecord m;
       m.id = static_cast<std::uint32_t>(v.config.marker);
       m.camera_mask = b.camera_mask;
@@ -116,6 +122,9 @@ void MavlinkSink::publish(const Datagram& update) {
       m.spread = b.spread;
       m.dt_us = b.dt_us;
       m.vx = b.vx, m.vy = b.vy, m.vz = b.vz;
+      m.sources = b.sources;
+      m.has_yaw = b.has_yaw;
+      m.covariance = b.covariance;
       send_pose(v, update, m, b.has_velocity, b.has_yaw_rate ? b.yaw_rate : kNaN);
       sent = true;
     }

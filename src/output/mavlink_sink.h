@@ -39,6 +39,9 @@ class MavlinkSink final : public OutputSink {
     std::uint8_t reset_counter = 0;
     std::int64_t last_heartbeat_ns = 0;
     bool heartbeat_sent = false;
+    /// The body its marker was last seen on: records of that body placed by ranges alone name
+    /// no marker.
+    std::string body;
   };
   /// `has_velocity`: m.vx/vy/vz are measured; `yaw_rate`: rad/s counter-clockwise in the lab
   /// (NaN: not measured).

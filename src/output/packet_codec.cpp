@@ -63,6 +63,10 @@ std::size_t record_size(const Datagram& d) {
   return d.has_velocity ? IPS_WIRE_RECORD_SIZE_VELOCITY : IPS_WIRE_RECORD_SIZE;
 }
 
+std::size_t body_record_size(const Datagram& d) {
+  return d.has_sources ? IPS_WIRE_BODY_RECORD_SIZE_SOURCES : IPS_WIRE_BODY_RECORD_SIZE;
+}
+
 Datagram decode_binary(std::span<const std::uint8_t> bytes) {
   ips_wire_header h{};
   const int status = ips_wire_read_header(bytes.data(), bytes.size(), &h);
@@ -139,6 +143,7 @@ Datagram decode_binary(std::span<const std::uint8_t> bytes) {
     b.vz = finite_or_throw(w.vz, "vz");
     b.has_yaw_rate = (w.flags & IPS_WIRE_BODY_HAS_YAW_RATE) != 0;
     b.yaw_rate = finite_or_throw(w.yaw_rate, "yaw_rate");
+    b.sources = w.sources;
     b.id_count = w.id_count;
     b.ids.assign(w.ids, w.ids + std::min<unsigned>(w.id_count, IPS_WIRE_BODY_MAX_IDS));
     d.bodies.push_back(std::move(b));
@@ -164,9 +169,9 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
     if (!valid_name(b.name))
       throw std::invalid_argument("encode_binary: body name '" + b.name + "' does not fit the wire");
   const std::size_t rs = record_size(d);
+  const std::size_t bs = body_record_size(d);
   const std::size_t markers_end = IPS_WIRE_HEADER_SIZE + d.markers.size() * rs;
-  std::vector<std::uint8_t> out(
-      markers_end + (v2 ? IPS_WIRE_BODY_SECTION_SIZE + d.bodies.size() * IPS_WIRE_BODY_RECORD_SIZE : 0), 0);
+  std::vector<std::uint8_t> out(markers_end + (v2 ? IPS_WIRE_BODY_SECTION_SIZE + d.bodies.size() * bs : 0), 0);
   std::uint8_t* p = out.data();
   if (p == nullptr) throw std::logic_error("encode_binary: allocation");  // never: size >= 48
   p[0] = IPS_WIRE_MAGIC_0;
@@ -210,10 +215,10 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
   if (v2) {
     std::uint8_t* sec = p + markers_end;
     ips_wire_put_u16(sec, static_cast<std::uint16_t>(d.bodies.size()));
-    ips_wire_put_u16(sec + 2, static_cast<std::uint16_t>(IPS_WIRE_BODY_RECORD_SIZE));
+    ips_wire_put_u16(sec + 2, static_cast<std::uint16_t>(bs));
     for (std::size_t i = 0; i < d.bodies.size(); ++i) {
       const BodyRecord& b = d.bodies[i];
-      std::uint8_t* r = sec + IPS_WIRE_BODY_SECTION_SIZE + i * IPS_WIRE_BODY_RECORD_SIZE;
+      std::uint8_t* r = sec + IPS_WIRE_BODY_SECTION_SIZE + i * bs;
       std::memcpy(r + IPS_WIRE_BODY_NAME, b.name.data(), b.name.size());  // the rest stays NUL
       ips_wire_put_u32(r + IPS_WIRE_BODY_CAMERA_MASK, b.camera_mask);
       ips_wire_put_f32(r + IPS_WIRE_BODY_X, static_cast<float>(b.x));
@@ -237,6 +242,7 @@ std::vector<std::uint8_t> encode_binary(const Datagram& d) {
         ips_wire_put_f32(r + IPS_WIRE_BODY_VZ, static_cast<float>(b.vz));
       }
       if (b.has_yaw_rate) ips_wire_put_f32(r + IPS_WIRE_BODY_YAW_RATE, static_cast<float>(b.yaw_rate));
+      if (d.has_sources) ips_wire_put_u16(r + IPS_WIRE_BODY_SOURCES, b.sources);
       const std::size_t count = std::min<std::size_t>(std::max<std::size_t>(b.id_count, b.ids.size()), 0xffff);
       ips_wire_put_u16(r + IPS_WIRE_BODY_ID_COUNT, static_cast<std::uint16_t>(count));
       for (std::size_t k = 0; k < b.ids.size() && k < IPS_WIRE_BODY_MAX_IDS; ++k)
@@ -288,10 +294,10 @@ std::vector<Datagram> split_update(const Datagram& update, WireFormat format) {
     used += bytes;
   }
   for (const BodyRecord& b : update.bodies) {
-    std::size_t bytes = IPS_WIRE_BODY_RECORD_SIZE;
+    std::size_t bytes = body_record_size(update);
     if (format == WireFormat::kJson) {
       std::string s;
-      append_body_json(s, b);
+      append_body_json(s, b, update.has_sources);
       bytes = s.size() + 1;
     }
     if (used + bytes > budget && (!current.markers.empty() || !current.bodies.empty())) {

@@ -20,7 +20,7 @@ bool valid_name(const std::string& name);
 double finite_or_throw(double v, const char* field);
 /// A marker's / body's JSON object appended to out (also sizes the JSON parts in split_update).
 void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity, bool sources);
-void append_body_json(std::string& out, const BodyRecord& b);
+void append_body_json(std::string& out, const BodyRecord& b, bool sources);
 /// The JSON form's decoder (packet_codec_json.cpp).
 Datagram decode_json(std::span<const std::uint8_t> bytes);
 

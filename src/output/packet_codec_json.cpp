@@ -30,6 +30,23 @@ std::vector<const char*> wire_source_names(std::uint16_t sources) {
   return names;
 }
 
+namespace {
+
+void append_source_names(std::string& out, std::uint16_t sources) {
+  out += ",\"sources\":[";
+  bool first = true;
+  for (const char* name : wire_source_names(sources)) {
+    if (!first) out.push_back(',');
+    out += '"';
+    out += name;
+    out += '"';
+    first = false;
+  }
+  out += "]";
+}
+
+}  // namespace
+
 namespace codec_detail {
 
 void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity, bool sources) {
@@ -45,21 +62,13 @@ void append_marker_json(std::string& out, const MarkerRecord& m, bool velocity, 
     out.append(buf, static_cast<std::size_t>(n));
   }
   if (sources) {
-    out += ",\"sources\":[";
-    bool first = true;
-    for (const char* name : wire_source_names(m.sources)) {
-      if (!first) out.push_back(',');
-      out += '"';
-      out += name;
-      out += '"';
-      first = false;
-    }
-    out += m.has_yaw ? "],\"has_yaw\":true" : "],\"has_yaw\":false";
+    append_source_names(out, m.sources);
+    out += m.has_yaw ? ",\"has_yaw\":true" : ",\"has_yaw\":false";
   }
   out.push_back('}');
 }
 
-void append_body_json(std::string& out, const BodyRecord& b) {
+void append_body_json(std::string& out, const BodyRecord& b, bool sources) {
   out += "{\"name\":";
   out += nlohmann::json(b.name).dump();
   char buf[1024];
@@ -85,10 +94,24 @@ void append_body_json(std::string& out, const BodyRecord& b) {
     n = std::snprintf(buf, sizeof buf, ",\"yaw_rate\":%.4f", b.yaw_rate);
     out.append(buf, static_cast<std::size_t>(n));
   }
+  if (sources) append_source_names(out, b.sources);
   out += "}";
 }
 
 namespace {
+
+/// A record's "sources" array of names -> IPS_WIRE_SOURCE_* bits (a later source's name is skipped).
+std::uint16_t source_bits(const nlohmann::json& names) {
+  if (!names.is_array()) malformed("field 'sources' is not an array");
+  std::uint16_t bits = 0;
+  for (const auto& name : names) {
+    if (!name.is_string()) malformed("a source is not a string");
+    for (unsigned bit = 0; bit < 16; ++bit)
+      if (const char* known = wire_source_name(bit); known && name.get<std::string>() == known)
+        bits = static_cast<std::uint16_t>(bits | (1u << bit));
+  }
+  return bits;
+}
 
 template <typename T>
 T get_integer(const nlohmann::json& obj, const char* key) {
@@ -165,14 +188,8 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
     }
     if (d.has_sources) {
       auto names = mj.find("sources");
-      if (names == mj.end() || !names->is_array()) malformed("field 'sources' missing or not an array");
-      m.sources = 0;
-      for (const auto& name : *names) {
-        if (!name.is_string()) malformed("a source is not a string");
-        for (unsigned bit = 0; bit < 16; ++bit)  // a later source's name is skipped
-          if (const char* known = wire_source_name(bit); known && name.get<std::string>() == known)
-            m.sources = static_cast<std::uint16_t>(m.sources | (1u << bit));
-      }
+      if (names == mj.end()) malformed("field 'sources' missing");
+      m.sources = source_bits(*names);
       auto has_yaw = mj.find("has_yaw");
       if (has_yaw == mj.end() || !has_yaw->is_boolean()) malformed("field 'has_yaw' missing or not a boolean");
       m.has_yaw = has_yaw->get<bool>();
@@ -223,6 +240,8 @@ Datagram decode_json(std::span<const std::uint8_t> bytes) {
       }
       b.has_yaw_rate = bj.contains("yaw_rate");
       if (b.has_yaw_rate) b.yaw_rate = get_number(bj, "yaw_rate");
+      // Optional: the first senders with sources wrote none for bodies (cameras, then).
+      if (auto names = bj.find("sources"); names != bj.end()) b.sources = source_bits(*names);
       d.bodies.push_back(std::move(b));
     }
   }
@@ -253,7 +272,7 @@ std::string encode_json(const Datagram& d) {
     out.append(",\"bodies\":[");
     for (std::size_t i = 0; i < d.bodies.size(); ++i) {
       if (i) out.push_back(',');
-      codec_detail::append_body_json(out, d.bodies[i]);
+      codec_detail::append_body_json(out, d.bodies[i], d.has_sources);
     }
     out.push_back(']');
   } else if (!d.bodies.empty()) {

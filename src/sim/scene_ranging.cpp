@@ -1,4 +1,4 @@
-// The scene's ranging part: anchors, non-line-of-sight zones, tags on markers, and the ranges a
+// The scene's ranging part: anchors, non-line-of-sight zones, tags on markers and bodies, and the ranges a
 // tag measures when it fires (docs/simulator.md, "Ranges").
 #include <algorithm>
 #include <cmath>
@@ -78,16 +78,27 @@ void read_ranging(const SceneReader& r, const YAML::Node& root, Scene& scene) {
     for (std::size_t i = 0; i < ts.size(); ++i) {
       const YAML::Node t = ts[i];
       const std::string p = "tags[" + std::to_string(i) + "].";
-      r.only_keys(t, p, {"id", "marker", "height", "range_tags", "sigma", "max_range", "odometry"});
+      r.only_keys(t, p, {"id", "marker", "body", "offset", "height", "range_tags", "sigma", "max_range", "odometry"});
       SceneTag tag;
       if (!t["id"]) r.fail(t, p + "id", "missing");
       tag.id = static_cast<int>(r.integer(t, p, "id", 0, 0, 2147483647));
       if (!ids.insert(tag.id).second) r.fail(t["id"], p + "id", "duplicate tag id " + std::to_string(tag.id));
-      if (!t["marker"]) r.fail(t, p + "marker", "missing (the id of the marker that carries the tag)");
-      tag.marker = static_cast<int>(r.integer(t, p, "marker", 0, 0, 1e9));
-      if (std::none_of(scene.markers.begin(), scene.markers.end(),
-                       [&](const SceneMarker& m) { return m.id == tag.marker; }))
-        r.fail(t["marker"], p + "marker", "no marker " + std::to_string(tag.marker) + " in the scene");
+      if (static_cast<bool>(t["marker"]) == static_cast<bool>(t["body"]))
+        r.fail(t, p + "marker", "give either marker (the id of the marker that carries the tag) or body (its name)");
+      if (t["body"]) {
+        if (!t["body"].IsScalar()) r.fail(t["body"], p + "body", "expected a body's name");
+        tag.body = t["body"].Scalar();
+        if (std::none_of(scene.bodies.begin(), scene.bodies.end(),
+                         [&](const SceneBody& b) { return b.def.name == tag.body; }))
+          r.fail(t["body"], p + "body", "no body '" + tag.body + "' in the scene");
+        if (t["offset"]) tag.offset = vec3(r.numbers(t, p, "offset", 3, 3));
+      } else {
+        if (t["offset"]) r.fail(t["offset"], p + "offset", "an offset places a tag on a body");
+        tag.marker = static_cast<int>(r.integer(t, p, "marker", 0, 0, 1e9));
+        if (std::none_of(scene.markers.begin(), scene.markers.end(),
+                         [&](const SceneMarker& m) { return m.id == tag.marker; }))
+          r.fail(t["marker"], p + "marker", "no marker " + std::to_string(tag.marker) + " in the scene");
+      }
       tag.height = r.number(t, p, "height", tag.height);
       if (std::abs(tag.height) > 10) r.fail(t["height"], p + "height", "must be -10..10 m");
       if (const YAML::Node b = t["range_tags"]) {
@@ -110,6 +121,14 @@ void read_ranging(const SceneReader& r, const YAML::Node& root, Scene& scene) {
 
 std::optional<Eigen::Vector3d> Scene::tag_position(std::size_t index, double t) const {
   const SceneTag& tag = tags.at(index);
+  if (!tag.body.empty()) {
+    for (std::size_t b = 0; b < bodies.size(); ++b)
+      if (bodies[b].def.name == tag.body) {
+        const BodyPose pose = body_pose_at(b, t);
+        return pose.position + pose.q * (tag.offset + Eigen::Vector3d(0, 0, tag.height));
+      }
+    return std::nullopt;
+  }
   const MarkerPose pose = marker_pose(tag.marker, t);
   if (!pose.present) return std::nullopt;
   return Eigen::Vector3d(pose.x, pose.y, pose.z + tag.height);

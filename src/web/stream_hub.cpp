@@ -157,6 +157,8 @@ Message StreamHub::markers_message(std::int64_t now) const {
                      {"age", age(e.t_mono_ns)}};
     if (b.has_velocity) o.update({{"vx", b.vx}, {"vy", b.vy}, {"vz", b.vz}});  // absent: not measured
     if (b.has_yaw_rate) o["yaw_rate"] = b.yaw_rate;
+    auto& sources = o["sources"] = nlohmann::json::array();  // ranges alone: the heading is held
+    for (const char* source : wire_source_names(b.sources)) sources.push_back(source);
     bodies.push_back(std::move(o));
   }
   return std::make_shared<const std::string>("event: markers\ndata: " + j.dump() + "\n\n");

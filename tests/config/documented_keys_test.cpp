@@ -136,6 +136,7 @@ ranging:
     - {id: 3, x: 4, y: 3, z: 2.5}
   tags:
     - {id: 7, marker: 3}
+    - {id: 8, body: pair, offset: [0, 0, 0.3]}
 )";
   std::set<std::string> recorded;
   {

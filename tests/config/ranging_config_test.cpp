@@ -16,6 +16,23 @@ class RangingConfig : public test::ConfigScratch {
       "[{id: 1, x: 0, y: 0, z: 2.5}, {id: 2, x: 4, y: 0, z: 1}, {id: 3, x: 4, y: 3, z: 2}]";
 };
 
+// A tag on a body: its body and its offset in the body's frame; a tag on a body's marker is
+// refused with the way to say it (a body's marker is published inside its body only).
+TEST_F(RangingConfig, TagsOnBodies) {
+  const std::string bodies =
+      "bodies:\n  - name: long\n"
+      "    flat: [{id: 30, edge: 0.1, offset: [0.2, 0, 0.25]}, {id: 31, edge: 0.1, offset: [-0.2, 0, 0.25]}]\n";
+  const auto c = parse_text(with(bodies, kThree, "[{id: 7, marker: 20}, {id: 9, body: long, offset: [0.1, 0, 0.3]}]"));
+  const RangingTag& t = c.ranging.tags.at(9);
+  EXPECT_TRUE(t.on_body());
+  EXPECT_EQ(t.body, "long");
+  EXPECT_EQ(t.offset, Eigen::Vector3d(0.1, 0, 0.3));
+  EXPECT_FALSE(c.ranging.tags.at(7).on_body());
+  EXPECT_EQ(c.ranging.input.tags, (std::set<std::uint32_t>{7, 9}));
+  expect_refused(with(bodies, kThree, "[{id: 7, marker: 31}]"),
+                 {"ranging.tags", "tag 7's marker 31 belongs to body 'long'", "body: long"});
+}
+
 TEST_F(RangingConfig, OffWithoutTheSectionAndItsDefaultsWithIt) {
   EXPECT_FALSE(parse_text(test::kSyntheticRedConfig).ranging.enabled());
   const auto c = parse_text(with("")).ranging;
@@ -28,7 +45,7 @@ TEST_F(RangingConfig, OffWithoutTheSectionAndItsDefaultsWithIt) {
   ASSERT_EQ(c.anchors.size(), 3u);
   EXPECT_EQ(c.anchors.at(2).position, Eigen::Vector3d(4, 0, 1));
   EXPECT_DOUBLE_EQ(c.anchors.at(2).scale, 1.0);
-  EXPECT_EQ(c.tag_markers.at(7), 20);
+  EXPECT_EQ(c.tags.at(7).marker, 20);
   // The input admits exactly the configured tags and anchors.
   EXPECT_EQ(c.input.tags, (std::set<std::uint32_t>{7}));
   EXPECT_EQ(c.input.anchors, (std::set<std::uint32_t>{1, 2, 3}));
@@ -61,7 +78,12 @@ TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
   expect_refused(with("", "[{id: 1, x: 0, y: 0}, {id: 2, x: 4, y: 0, z: 1}, {id: 3, x: 4, y: 3, z: 2}]"),
                  {"ranging.anchors[0].z", "required"});
   expect_refused(with("", kThree, "[{id: -1, marker: 3}]"), {"ranging.tags[0].id", "0..2147483647"});
-  expect_refused(with("", kThree, "[{id: 7}]"), {"ranging.tags[0].marker", "required"});
+  expect_refused(with("", kThree, "[{id: 7}]"), {"ranging.tags[0]", "either `marker`", "or `body`"});
+  expect_refused(with("", kThree, "[{id: 7, marker: 3, body: rover}]"), {"ranging.tags[0]", "either `marker`"});
+  expect_refused(with("", kThree, "[{id: 7, marker: 3, offset: [0, 0, 0.1]}]"),
+                 {"ranging.tags[0].offset", "on a body"});
+  expect_refused(with("", kThree, "[{id: 7, body: rover, offset: [0, 0]}]"), {"ranging.tags[0].offset", "[x, y, z]"});
+  expect_refused(with("", kThree, "[{id: 7, body: rover}]"), {"ranging.tags", "tag 7's body 'rover' is not in bodies"});
   expect_refused(with("", kThree, "[{id: 7, marker: 9}]") + "markers: {ids: {9: {fixed: [1, 2, 0]}}}\n",
                  {"ranging.tags", "fixed marker"});
   expect_refused(with("  prot: 5801\n"), {"ranging.prot", "unknown key"});

@@ -26,7 +26,8 @@ TEST(AnchorSurvey, FindsTheAnchorThatIsNotWhereTheConfigurationSays) {
     return Eigen::Vector3d(2.0 + 1.3 * std::cos(a), 1.5 + 1.3 * std::sin(a), 0.3);
   };
   std::int64_t now = 0;
-  RangeFixer fixer(c, [&](int id) -> std::optional<MobileReference> {
+  RangeFixer fixer(c, [&](const RangingTag& carrier) -> std::optional<MobileReference> {
+    const int id = carrier.marker;
     if (id != 20) return std::nullopt;
     MobileReference m;
     m.t_mono_ns = (now / 33'333'333) * 33'333'333;

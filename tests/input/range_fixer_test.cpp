@@ -108,7 +108,7 @@ TEST(RangeFixer, AnotherRobotAsPublishedIsAMobileAnchorMovedToTheFiringTime) {
   // and the range is to that point. Four references: the 3-D fix is exact.
   RangingConfig c = lab();
   c.track = false;  // each firing alone: what the one firing's references give
-  c.tag_markers[8] = 21;
+  c.tags[8] = RangingTag::on_marker(21);
   const Eigen::Vector3d tag(1.0, 1.0, 0.5), robot(3.0, 2.0, 0.3);
   AdmittedFiring f = firing_at(c, tag);
   f.firing.entries.resize(3);
@@ -118,7 +118,8 @@ TEST(RangeFixer, AnotherRobotAsPublishedIsAMobileAnchorMovedToTheFiringTime) {
   published.velocity = {1.0, 0.0, 0.0};
   published.covariance = 1e-6 * Eigen::Matrix3d::Identity();
   published.t_mono_ns = f.t_mono_ns - 100'000'000;
-  RangeFixer fixer(c, [&](int id) -> std::optional<MobileReference> {
+  RangeFixer fixer(c, [&](const RangingTag& carrier) -> std::optional<MobileReference> {
+    const int id = carrier.marker;
     if (id == 21) return published;
     return std::nullopt;
   });
@@ -195,7 +196,8 @@ CameraReferenceRun run_with_cameras(bool camera_reference) {
     return Eigen::Vector3d(2.0 + 0.6 * std::cos(a), 1.5 + 0.6 * std::sin(a), 0.3);
   };
   std::int64_t now = 0;
-  RangeFixer fixer(c, [&](int id) -> std::optional<MobileReference> {
+  RangeFixer fixer(c, [&](const RangingTag& carrier) -> std::optional<MobileReference> {
+    const int id = carrier.marker;
     // The daemon's latest published state of marker 20: camera-placed at 30 fps while in view.
     const double t = 1e-9 * static_cast<double>(now);
     if (id != 20 || t > 20.0) return std::nullopt;

@@ -12,7 +12,7 @@ inline RangingConfig ranging_lab() {
   c.anchors[2].position = {4, 0, 1.0};
   c.anchors[3].position = {4, 3, 2.5};
   c.anchors[4].position = {0, 3, 1.0};
-  c.tag_markers[7] = 20;
+  c.tags[7] = RangingTag::on_marker(20);
   return c;
 }
 

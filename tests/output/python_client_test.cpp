@@ -164,6 +164,20 @@ TEST(PythonClient, DecodesVersion2Bodies) {
   EXPECT_DOUBLE_EQ(old["bodies"][0]["x"].get<double>(), 1.25);
   EXPECT_FALSE(old["bodies"][0].contains("vx"));
   EXPECT_FALSE(old["bodies"][1].contains("yaw_rate"));
+  // With sources (120-byte body records): a body placed by ranges alone says so.
+  Datagram ranged = d;
+  ranged.has_sources = true;
+  ranged.markers[0].sources = IPS_WIRE_SOURCE_CAMERA;
+  ranged.bodies[0].camera_mask = 0;
+  ranged.bodies[0].has_yaw = false;
+  ranged.bodies[0].sources = IPS_WIRE_SOURCE_RANGES;
+  ranged.bodies[1].sources = IPS_WIRE_SOURCE_CAMERA | IPS_WIRE_SOURCE_RANGES;
+  const auto with_sources = nlohmann::json::parse(python_decode(encode_binary(ranged)));
+  ASSERT_EQ(with_sources["bodies"].size(), 2u);
+  EXPECT_EQ(with_sources["bodies"][0]["sources"], nlohmann::json({"ranges"}));
+  EXPECT_EQ(with_sources["bodies"][0]["has_yaw"], false);
+  EXPECT_EQ(with_sources["bodies"][1]["sources"], nlohmann::json({"camera", "ranges"}));
+  EXPECT_FALSE(old["bodies"][0].contains("sources"));
   // And a version it does not read: the clear refusal.
   auto v3 = bytes;
   v3[4] = 3;

@@ -103,7 +103,7 @@ TEST(StarLoc, ReplayedThroughTheRangeInputTheTrackerBeatsTheSlidingWindowBaselin
     config.input.anchors.insert(static_cast<std::uint32_t>(id));
   }
   for (std::uint32_t tag : {1u, 2u}) {
-    config.tag_markers[tag] = static_cast<int>(tag);
+    config.tags[tag] = RangingTag::on_marker(static_cast<int>(tag));
     config.input.tags.insert(tag);
   }
   ASSERT_TRUE(config.track) << "the default";

@@ -80,6 +80,12 @@ struct FusedBody {
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   bool has_yaw_rate = false;  ///< two poses with a yaw in the span
   double yaw_rate = 0.0;
+  /// What placed it (ips::source_bit): the cameras, or ranges alone (a ranging tag on the body,
+  /// BodyTrack::add_fix; camera_mask 0, heading held from the last measured one).
+  std::uint16_t sources = source_bit(ObservationSource::kCamera);
+  /// Of the position, m^2: from the cameras, BodyTrackOptions::camera_sigma_m^2 over their
+  /// number plus the spread^2 per axis; from ranges, the fix's.
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
 };
 
 struct BodyEstimatorOptions {

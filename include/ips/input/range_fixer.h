@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "ips/core/observation.h"
 #include "ips/input/anchor_survey.h"
@@ -60,10 +61,18 @@ struct MobileReference {
   bool seen_by_cameras = false;  ///< the cameras placed this state (not ranges alone)
 };
 
+/// The state of a point fixed on a rigid body (a tag at `offset` in the body's frame) from the
+/// body origin's state `origin`, its orientation (body -> world) and its yaw rate (rad/s about
+/// world z; 0 when not measured): the origin plus the turned offset, moving with the origin's
+/// velocity plus the turn's share at the offset. Covariance, time and camera flag as the origin's.
+MobileReference point_on_body(const MobileReference& origin, const Eigen::Quaterniond& orientation, double yaw_rate,
+                              const Eigen::Vector3d& offset);
+
 class RangeFixer {
  public:
-  /// The latest published state of a marker id, if any (the daemon's fused stream).
-  using StateOf = std::function<std::optional<MobileReference>(int marker_id)>;
+  /// The latest published state of the tag itself, if any (the daemon's fused stream): its
+  /// marker's state, or its body's turned and moved to where the tag sits on the body.
+  using StateOf = std::function<std::optional<MobileReference>(const RangingTag& tag)>;
   /// A mobile reference's state is used this long before or after the firing, moved to the
   /// firing time by its velocity (a camera's state is 100-300 ms old when a firing arrives on
   /// a busy machine); older, the range to it is left out. The move's own uncertainty, half an
@@ -75,7 +84,8 @@ class RangeFixer {
 
   explicit RangeFixer(RangingConfig config, StateOf state_of = {});
 
-  /// The observation of `firing`'s tag at its firing time, or nullopt (counted) if it cannot
+  /// The observation of `firing`'s tag at its firing time (marker id = the tag's marker; -1
+  /// for a tag on a body: the caller places the body, see RangingTag), or nullopt (counted) if it cannot
   /// be solved. `t_real_ns` is the firing time on this host's CLOCK_REALTIME. A range to
   /// another tag uses that tag's robot, as published, as an anchor: its position's variance
   /// (the mean over the axes) is added to the range's. A firing's odometry (the distance
@@ -105,10 +115,10 @@ class RangeFixer {
     double reference_sigma_m = 0;  // mobile: the reference's own position uncertainty
   };
   std::vector<Corrected> correct(const AdmittedFiring& firing);
-  std::optional<WorldObservation> solve(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, int marker,
-                                        std::int64_t t_real_ns);
-  std::optional<WorldObservation> track(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, int marker,
-                                        std::int64_t t_real_ns);
+  std::optional<WorldObservation> solve(const std::vector<Corrected>& ranges, const AdmittedFiring& firing,
+                                        const RangingTag& tag, std::int64_t t_real_ns);
+  std::optional<WorldObservation> track(const std::vector<Corrected>& ranges, const AdmittedFiring& firing,
+                                        const RangingTag& tag, std::int64_t t_real_ns);
 
   RangingConfig config_;
   StateOf state_of_;
@@ -118,7 +128,7 @@ class RangeFixer {
   std::map<std::uint32_t, RangeTracker> trackers_;               // by tag
   std::map<std::uint32_t, std::int64_t> camera_reference_used_;  // by tag: the last camera state's time fed
   AnchorSurveyor surveyor_;
-  void survey(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, int marker);
+  void survey(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, const RangingTag& tag);
   /// A tag's recent firings (by firing counter), for the odometry of the next one.
   struct PastFiring {
     std::int64_t t_ns = 0;

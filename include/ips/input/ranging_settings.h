@@ -27,12 +27,29 @@ struct RangingAnchor {
   bool operator==(const RangingAnchor&) const = default;
 };
 
+/// What carries a tag: a marker (its fixes are published as that marker) or a rigid body (its
+/// fixes place the body: the body's origin is the tag minus the tag's offset turned by the
+/// body's last known orientation).
+struct RangingTag {
+  int marker = -1;                                   ///< >= 0: the marker id; -1: on `body`
+  std::string body;                                  ///< config bodies[].name when marker < 0
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< the tag in the body's frame, m
+
+  static RangingTag on_marker(int id) {
+    RangingTag t;
+    t.marker = id;
+    return t;
+  }
+  bool on_body() const { return marker < 0; }
+  bool operator==(const RangingTag&) const = default;
+};
+
 struct RangingConfig {
   /// address, port (0 = the section is absent: no range input), allow, psk, limits; its
   /// tags and anchors are filled from the ones below.
   RangeInputSettings input;
   std::map<std::uint32_t, RangingAnchor> anchors;
-  std::map<std::uint32_t, int> tag_markers;          ///< tag id -> the marker id its fixes are published as
+  std::map<std::uint32_t, RangingTag> tags;          ///< tag id -> what carries it
   std::string method = "robust";                     ///< ips::range_method_names()
   std::optional<double> height;                      ///< the tags' known height (robots on a floor), m
   std::optional<std::pair<double, double>> z_range;  ///< otherwise, the heights they can be at

@@ -52,6 +52,12 @@ struct BodyRecord {
   double vx = 0, vy = 0, vz = 0;          ///< world, m/s
   bool has_yaw_rate = false;              ///< yaw_rate measured
   double yaw_rate = 0;                    ///< rad/s about world z
+  /// IPS_WIRE_SOURCE_* bits, as a marker record's; on the wire only when the datagram
+  /// has_sources (a 120-byte record). Ranges alone: camera_mask 0, has_yaw false (held).
+  std::uint16_t sources = 1;
+  /// Position covariance, m^2, upper triangle xx xy xz yy yz zz (in process only: ROS 2,
+  /// MAVLink); all 0 = unknown.
+  std::array<double, 6> covariance{};
 };
 
 /// One datagram's content (either format). Version 1: markers only; version 2: markers and

@@ -109,6 +109,14 @@
  *   104    4 f32      vy, m/s               daemon's fusion.velocity_span (a mean over that
  *   108    4 f32      vz, m/s               span, not a filter); 0 without HAS_VELOCITY
  *   112    4 f32      yaw_rate, rad/s about world z, over the same span; 0 without HAS_YAW_RATE
+ *   with IPS_WIRE_FLAG_SOURCES in the header (ipsd with `ranging:`), the record is 120 bytes:
+ *   116    2 u16      sources: IPS_WIRE_SOURCE_* bits as in a marker record; a body placed by
+ *                     ranges alone (a ranging tag on it, docs/ranging.md) has camera_mask 0,
+ *                     quality 0 and IPS_WIRE_BODY_HAS_YAW clear (its yaw and quaternion are the
+ *                     last measured ones, held)
+ *   118    2 u16      reserved, 0
+ *   A record shorter than 120 bytes, or without the header flag, is from the cameras (the
+ *   first ipsd with ranges sent 116-byte body records with the flag set).
  */
 #ifndef IPS_WIRE_H
 #define IPS_WIRE_H
@@ -203,6 +211,8 @@ extern "C" {
 #define IPS_WIRE_BODY_VY 104u
 #define IPS_WIRE_BODY_VZ 108u
 #define IPS_WIRE_BODY_YAW_RATE 112u
+#define IPS_WIRE_BODY_SOURCES 116u
+#define IPS_WIRE_BODY_RECORD_SIZE_SOURCES 120u /* what ipsd sends with IPS_WIRE_FLAG_SOURCES */
 
 /* ---- little-endian readers (byte-wise: any host byte order, any alignment) ---- */
 static inline uint16_t ips_wire_get_u16(const uint8_t* p) {
@@ -320,6 +330,7 @@ struct ips_wire_body {
   uint32_t ids[IPS_WIRE_BODY_MAX_IDS];
   float vx, vy, vz; /* 0 unless flags has IPS_WIRE_BODY_HAS_VELOCITY */
   float yaw_rate;   /* 0 unless flags has IPS_WIRE_BODY_HAS_YAW_RATE */
+  uint16_t sources; /* IPS_WIRE_SOURCE_* bits (CAMERA in records without them) */
 };
 
 /* Validates a whole datagram and decodes its header. Returns IPS_WIRE_OK or a negative
@@ -420,6 +431,9 @@ static inline void ips_wire_read_body(const uint8_t* buf, const struct ips_wire_
   b->id_count = ips_wire_get_u16(r + IPS_WIRE_BODY_ID_COUNT);
   for (i = 0; i < IPS_WIRE_BODY_MAX_IDS; ++i) b->ids[i] = ips_wire_get_u32(r + IPS_WIRE_BODY_IDS + 4u * i);
   b->vx = b->vy = b->vz = b->yaw_rate = 0.0f;
+  b->sources = (h->flags & IPS_WIRE_FLAG_SOURCES) && h->body_record_size >= IPS_WIRE_BODY_RECORD_SIZE_SOURCES
+                   ? ips_wire_get_u16(r + IPS_WIRE_BODY_SOURCES)
+                   : IPS_WIRE_SOURCE_CAMERA;
   if (h->body_record_size < IPS_WIRE_BODY_RECORD_SIZE) {
     /* A 100-byte record (no velocity fields): whatever its flags say, nothing was measured. */
     b->flags = (uint16_t)(b->flags & ~(IPS_WIRE_BODY_HAS_VELOCITY | IPS_WIRE_BODY_HAS_YAW_RATE));

@@ -128,10 +128,13 @@ struct NlosZone {
   double bias = 0.3;  ///< m, added to a range whose straight line crosses the box (> 0)
 };
 
-/// A ranging tag carried by a marker: at the marker's centre, `height` above it.
+/// A ranging tag carried by a marker (at its centre, `height` above it) or by a body (at
+/// `offset` in the body's frame, plus `height` along the body's z).
 struct SceneTag {
   int id = 0;
-  int marker = 0;       ///< the carrying marker's id
+  int marker = -1;   ///< the carrying marker's id (-1: on `body`)
+  std::string body;  ///< the carrying body's name
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
   double height = 0.0;  ///< m above the marker's centre
   /// Ranges to other tags (mobile references) within max_range, with this sigma; false: anchors only.
   bool range_tags = false;

@@ -44,11 +44,14 @@ function drawBodyRow(tr, b, cams) {
   cell(tr, 'x', b.x, fmt(b.x, 3), true);
   cell(tr, 'y', b.y, fmt(b.y, 3), true);
   cell(tr, 'z', b.z, fmt(b.z, 3), true);
-  cell(tr, 'yaw_deg', b.has_yaw ? b.yaw * 180 / Math.PI : null, b.has_yaw ? fmt(b.yaw * 180 / Math.PI, 1) : '–', true);
+  // Ranges alone: the last measured heading, held (shown in brackets).
+  const held = !b.has_yaw && (b.sources || []).includes('ranges');
+  const yawText = b.has_yaw ? fmt(b.yaw * 180 / Math.PI, 1) : held ? `(${fmt(b.yaw * 180 / Math.PI, 1)})` : '–';
+  cell(tr, 'yaw_deg', b.has_yaw || held ? b.yaw * 180 / Math.PI : null, yawText, true);
   const speed = b.vx === undefined ? null : Math.hypot(b.vx, b.vy);
   cell(tr, 'speed', speed, fmt(speed, 2), true);
   cell(tr, 'ids', b.ids.join(','), b.ids.join(' ') + (b.id_count > b.ids.length ? ' …' : ''));
-  cell(tr, 'cameras', cams.join(','), cams.join(' ') || '–');
+  cell(tr, 'cameras', cams.join(','), placedBy(cams, b.sources || ['camera']));
   cell(tr, 'age', b.age, fmt(b.age, 1), true);
 }
 
@@ -64,13 +67,16 @@ function drawBodies(msg) {
     // World y up, SVG y down: a turn by yaw in the world is a turn by -yaw on the map.
     v.g.querySelector('g.shape').setAttribute('transform', `rotate(${(-b.yaw * 180 / Math.PI).toFixed(2)})`);
     const speed = b.vx === undefined ? '' : Math.hypot(b.vx, b.vy);
+    const sources = b.sources || ['camera'];
     Object.assign(v.g.dataset, { x: b.x, y: b.y, z: b.z, yaw: b.yaw, hasYaw: b.has_yaw ? 1 : 0,
-                                 ids: b.ids.join(','), cameras: cams.join(','), age: b.age, speed });
+                                 ids: b.ids.join(','), cameras: cams.join(','), sources: sources.join(','),
+                                 age: b.age, speed });
+    v.g.classList.toggle('ranged', !sources.includes('camera'));
     v.g.classList.toggle('stale', b.age > STALE_S);
     v.g.classList.toggle('no-yaw', !b.has_yaw);
     v.g.querySelector('text.label').textContent = b.name;
     v.g.querySelector('text.sub').textContent =
-        `markers ${b.ids.join(' ')} · ${cams.join(' ') || '–'} · ${fmt(b.age, 1)} s`;
+        `markers ${b.ids.join(' ') || '–'} · ${placedBy(cams, sources)} · ${fmt(b.age, 1)} s`;
     const last = v.points[v.points.length - 1];
     if (!last || Math.hypot(last[0] - b.x, last[1] - b.y) > 0.005) v.points.push([b.x, b.y]);
     if (v.points.length > BODY_TRAIL) v.points.shift();
