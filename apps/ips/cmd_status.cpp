@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 
@@ -147,17 +148,23 @@ int run_status(const StatusOptions& o) {
         continue;
       }
       const std::string what = a.value("estimated", std::string());
+      // 1-sigma of x, y, z and bias: a shift within ~2 sigma is what these ranges cannot tell
+      // from none (samples from a small part of the room trade position against bias).
+      const auto sigma = a.value("sigma_m", std::vector<double>{});
+      const double position_sigma = sigma.size() == 4 ? std::sqrt(sigma[0] * sigma[0] + sigma[1] * sigma[1] +
+                                                                  (what == "horizontal" ? 0.0 : sigma[2] * sigma[2]))
+                                                      : 0.0;
       if (what != "bias") {
         const auto p = a.value("position", std::vector<double>{}), c = a.value("configured", std::vector<double>{});
         if (p.size() == 3 && c.size() == 3)
-          std::printf("; %.1f cm from its configured position (%+.1f %+.1f %+.1f cm%s)", 100 * a.value("moved_m", 0.0),
-                      100 * (p[0] - c[0]), 100 * (p[1] - c[1]), 100 * (p[2] - c[2]),
-                      what == "horizontal" ? ", height as configured" : "");
+          std::printf("; %.1f +- %.1f cm from its configured position (%+.1f %+.1f %+.1f cm%s)",
+                      100 * a.value("moved_m", 0.0), 100 * position_sigma, 100 * (p[0] - c[0]), 100 * (p[1] - c[1]),
+                      100 * (p[2] - c[2]), what == "horizontal" ? ", height as configured" : "");
       } else {
         std::printf("; position not determined by these ranges");
       }
-      std::printf("; reads %+.1f cm beyond its bias; rms %.1f cm\n", 100 * a.value("bias_m", 0.0),
-                  100 * a.value("rms_m", 0.0));
+      std::printf("; reads %+.1f +- %.1f cm beyond its bias; rms %.1f cm\n", 100 * a.value("bias_m", 0.0),
+                  100 * (sigma.size() == 4 ? sigma[3] : 0.0), 100 * a.value("rms_m", 0.0));
     }
     const auto tracks = r.value("tracks", nlohmann::json::array());
     for (const auto& t : tracks) {

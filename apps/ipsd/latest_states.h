@@ -38,15 +38,15 @@ class LatestStates {
     }
   }
   /// Where `tag` was at its carrier's latest published state, if ever published (range input's
-  /// thread). On a body: the body's origin plus the tag's offset turned by the body's
-  /// orientation (held from its last measured one when ranges alone placed it); its velocity
-  /// includes the yaw rate's share at the offset.
+  /// thread; ips::tag_point): on a marker, its height above the marker's centre; on a body, the
+  /// body's origin plus the tag's offset turned by the body's orientation (held from its last
+  /// measured one when ranges alone placed it), its velocity with the yaw rate's share.
   std::optional<ips::MobileReference> of(const ips::RangingTag& tag) const {
     std::lock_guard lock(mutex_);
     if (!tag.on_body()) {
       const auto it = states_.find(tag.marker);
       if (it == states_.end()) return std::nullopt;
-      return it->second;
+      return ips::tag_point(it->second, Eigen::Quaterniond::Identity(), 0.0, tag);
     }
     const auto it = bodies_.find(tag.body);
     if (it == bodies_.end()) return std::nullopt;
@@ -57,7 +57,7 @@ class LatestStates {
     origin.covariance = b.covariance;
     origin.t_mono_ns = b.t_mono_ns;
     origin.seen_by_cameras = b.camera_mask != 0;
-    return ips::point_on_body(origin, b.pose.q, b.has_yaw_rate ? b.yaw_rate : 0.0, tag.offset);
+    return ips::tag_point(origin, b.pose.q, b.has_yaw_rate ? b.yaw_rate : 0.0, tag);
   }
 
  private:

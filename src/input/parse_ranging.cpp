@@ -134,34 +134,43 @@ RangingConfig parse_ranging(const YAML::Node& node, const std::string& file) {
   });
   if (c.anchors.size() < 3)
     r.fail(node["anchors"], "ranging.anchors", "at least 3 anchors (4 without a known height) are needed for a fix");
-  read_list(r, "tags", "tags ({id, marker} or {id, body, offset})", [&](const YAML::Node& n, const std::string& where) {
-    MapReader t(n, where, file);
-    const std::uint32_t id = read_id(t, n, "tag");
-    RangingTag tag;
-    t.get("marker", tag.marker);
-    t.get("body", tag.body);
-    if (t.has("marker") == t.has("body"))
-      t.fail(n, where,
-             "give either `marker` (the marker id the tag's fixes are published as) or `body` (a body's name)");
-    if (t.has("marker") && tag.marker < 0)
-      t.fail(n["marker"], t.key("marker"), "a marker id (>= 0) the tag's fixes are published as");
-    if (t.has("offset")) {
-      const YAML::Node o = t.node("offset");
-      if (tag.marker >= 0) t.fail(o, t.key("offset"), "an offset places a tag on a body (`body`), not on a marker");
-      bool ok = o.IsSequence() && o.size() == 3;
-      for (std::size_t k = 0; ok && k < 3; ++k) {
-        try {
-          tag.offset[static_cast<Eigen::Index>(k)] = o[k].as<double>();
-          ok = std::isfinite(tag.offset[static_cast<Eigen::Index>(k)]);
-        } catch (const YAML::Exception&) {
-          ok = false;
-        }
-      }
-      if (!ok) t.fail(o, t.key("offset"), "expected [x, y, z]: the tag in the body's frame, metres");
-    }
-    t.finish();
-    if (!c.tags.emplace(id, tag).second) t.fail(n["id"], t.key("id"), "tag " + std::to_string(id) + " is listed twice");
-  });
+  read_list(r, "tags", "tags ({id, marker, height} or {id, body, offset})",
+            [&](const YAML::Node& n, const std::string& where) {
+              MapReader t(n, where, file);
+              const std::uint32_t id = read_id(t, n, "tag");
+              RangingTag tag;
+              t.get("marker", tag.marker);
+              t.get("body", tag.body);
+              t.get("height", tag.height);
+              if (t.has("height") && t.has("body"))
+                t.fail(n["height"], t.key("height"),
+                       "on a body the tag's place is its `offset` [x, y, z] in the body's frame");
+              if (t.has("marker") == t.has("body"))
+                t.fail(
+                    n, where,
+                    "give either `marker` (the marker id the tag's fixes are published as) or `body` (a body's name)");
+              if (t.has("marker") && tag.marker < 0)
+                t.fail(n["marker"], t.key("marker"), "a marker id (>= 0) the tag's fixes are published as");
+              if (t.has("offset")) {
+                const YAML::Node o = t.node("offset");
+                if (tag.marker >= 0)
+                  t.fail(o, t.key("offset"),
+                         "an offset places a tag on a body (`body`); on a marker, `height` above its centre");
+                bool ok = o.IsSequence() && o.size() == 3;
+                for (std::size_t k = 0; ok && k < 3; ++k) {
+                  try {
+                    tag.offset[static_cast<Eigen::Index>(k)] = o[k].as<double>();
+                    ok = std::isfinite(tag.offset[static_cast<Eigen::Index>(k)]);
+                  } catch (const YAML::Exception&) {
+                    ok = false;
+                  }
+                }
+                if (!ok) t.fail(o, t.key("offset"), "expected [x, y, z]: the tag in the body's frame, metres");
+              }
+              t.finish();
+              if (!c.tags.emplace(id, tag).second)
+                t.fail(n["id"], t.key("id"), "tag " + std::to_string(id) + " is listed twice");
+            });
   r.finish();
   for (const auto& [id, a] : c.anchors) in.anchors.insert(id);
   for (const auto& [id, t] : c.tags) in.tags.insert(id);

@@ -20,6 +20,14 @@ MobileReference point_on_body(const MobileReference& origin, const Eigen::Quater
   return r;
 }
 
+MobileReference tag_point(const MobileReference& carrier, const Eigen::Quaterniond& orientation, double yaw_rate,
+                          const RangingTag& tag) {
+  if (tag.on_body()) return point_on_body(carrier, orientation, yaw_rate, tag.offset);
+  MobileReference r = carrier;
+  r.position.z() += tag.height;
+  return r;
+}
+
 RangeFixer::RangeFixer(RangingConfig config, StateOf state_of)
     : config_(std::move(config)), state_of_(std::move(state_of)), surveyor_({}, {}) {
   config_.track_options.known_height = config_.height;
@@ -96,7 +104,8 @@ std::optional<WorldObservation> RangeFixer::fix(const AdmittedFiring& admitted, 
   if (config_.track_camera_reference && state_of_) survey(ranges, admitted, tag->second);
   auto out =
       config_.track ? track(ranges, admitted, tag->second, t_real_ns) : solve(ranges, admitted, tag->second, t_real_ns);
-  remember_firing(admitted, out);
+  remember_firing(admitted, out);  // the tag's own position: its next firing's odometry sphere
+  if (out && !tag->second.on_body()) out->p_world.z() -= tag->second.height;  // the marker's centre
   return out;
 }
 

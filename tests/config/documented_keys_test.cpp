@@ -135,7 +135,7 @@ ranging:
     - {id: 2, x: 4, y: 0, z: 2.5}
     - {id: 3, x: 4, y: 3, z: 2.5}
   tags:
-    - {id: 7, marker: 3}
+    - {id: 7, marker: 3, height: 0.1}
     - {id: 8, body: pair, offset: [0, 0, 0.3]}
 )";
   std::set<std::string> recorded;

@@ -84,6 +84,7 @@ TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {
                  {"ranging.tags[0].offset", "on a body"});
   expect_refused(with("", kThree, "[{id: 7, body: rover, offset: [0, 0]}]"), {"ranging.tags[0].offset", "[x, y, z]"});
   expect_refused(with("", kThree, "[{id: 7, body: rover}]"), {"ranging.tags", "tag 7's body 'rover' is not in bodies"});
+  expect_refused(with("", kThree, "[{id: 7, body: rover, height: 0.2}]"), {"ranging.tags[0].height", "`offset`"});
   expect_refused(with("", kThree, "[{id: 7, marker: 9}]") + "markers: {ids: {9: {fixed: [1, 2, 0]}}}\n",
                  {"ranging.tags", "fixed marker"});
   expect_refused(with("  prot: 5801\n"), {"ranging.prot", "unknown key"});

@@ -1,6 +1,6 @@
-// Tags on bodies (ranging.tags[].body, docs/ranging.md "Tags on bodies"): the point a tag sits
-// at on a moving, turning body (hand-computed), a body tag's fix (no marker id: the daemon places
-// the body with it), and a body's tag as another robot's mobile anchor.
+// Where a tag sits on its carrier (docs/ranging.md "Tags on bodies"): the point on a moving,
+// turning body (hand-computed), a body tag's fix (no marker id: the daemon places the body with
+// it), a body's tag as another robot's mobile anchor, and a tag above a marker's centre.
 #include <cmath>
 #include <optional>
 
@@ -81,6 +81,29 @@ TEST(TagOnBody, ABodyTagsFixNamesNoMarkerAndItsRobotIsAnotherTagsMobileAnchor) {
   EXPECT_EQ(o->id, 20);
   EXPECT_EQ(fixer.counters().mobile_references, 1u);
   EXPECT_GE(asked_for_the_body, 1);
+}
+
+// A tag 0.15 m above its marker's centre: the camera-placed marker, raised, is where the tag is;
+// the tag's fix, lowered, is where the marker is.
+TEST(TagOnMarker, ItsHeightRaisesTheMarkersStateAndLowersItsFix) {
+  RangingConfig c = test::ranging_lab();
+  c.track = false;
+  c.tags[7].height = 0.15;
+  MobileReference marker;
+  marker.position = {1.0, 2.0, 0.15};
+  marker.velocity = {0.3, 0, 0};
+  const MobileReference tag = tag_point(marker, Eigen::Quaterniond::Identity(), 5.0, c.tags[7]);
+  EXPECT_EQ(tag.position, Eigen::Vector3d(1.0, 2.0, 0.30));
+  EXPECT_EQ(tag.velocity, marker.velocity) << "a marker's turn does not move a tag above its centre";
+  const Eigen::Vector3d at(1.5, 1.2, 0.45);
+  AdmittedFiring f;
+  f.firing.tag = 7;
+  f.t_mono_ns = 1'000'000'000;
+  for (const auto& [id, a] : c.anchors) f.firing.entries.push_back({id, false, (a.position - at).norm(), 0.0});
+  const auto o = RangeFixer(c).fix(f, 0);
+  ASSERT_TRUE(o.has_value());
+  EXPECT_EQ(o->id, 20);
+  EXPECT_LT((o->p_world - Eigen::Vector3d(1.5, 1.2, 0.30)).norm(), 1e-6);
 }
 
 }  // namespace

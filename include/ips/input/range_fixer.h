@@ -68,6 +68,12 @@ struct MobileReference {
 MobileReference point_on_body(const MobileReference& origin, const Eigen::Quaterniond& orientation, double yaw_rate,
                               const Eigen::Vector3d& offset);
 
+/// Where `tag` is, from its carrier's published state: a marker's (`orientation`, `yaw_rate`
+/// unused) raised by the tag's height, or a body origin's through point_on_body with the tag's
+/// offset.
+MobileReference tag_point(const MobileReference& carrier, const Eigen::Quaterniond& orientation, double yaw_rate,
+                          const RangingTag& tag);
+
 class RangeFixer {
  public:
   /// The latest published state of the tag itself, if any (the daemon's fused stream): its
@@ -84,8 +90,9 @@ class RangeFixer {
 
   explicit RangeFixer(RangingConfig config, StateOf state_of = {});
 
-  /// The observation of `firing`'s tag at its firing time (marker id = the tag's marker; -1
-  /// for a tag on a body: the caller places the body, see RangingTag), or nullopt (counted) if it cannot
+  /// The observation of `firing`'s tag at its firing time (marker id = the tag's marker, the
+  /// position lowered by the tag's height to the marker's centre; -1 for a tag on a body: the
+  /// position is the tag's, the caller places the body, see RangingTag), or nullopt (counted) if it cannot
   /// be solved. `t_real_ns` is the firing time on this host's CLOCK_REALTIME. A range to
   /// another tag uses that tag's robot, as published, as an anchor: its position's variance
   /// (the mean over the axes) is added to the range's. A firing's odometry (the distance

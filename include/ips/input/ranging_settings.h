@@ -27,13 +27,14 @@ struct RangingAnchor {
   bool operator==(const RangingAnchor&) const = default;
 };
 
-/// What carries a tag: a marker (its fixes are published as that marker) or a rigid body (its
-/// fixes place the body: the body's origin is the tag minus the tag's offset turned by the
-/// body's last known orientation).
+/// What carries a tag: a marker (the tag `height` above its centre; its fixes, that much lower,
+/// are published as that marker) or a rigid body (its fixes place the body: the body's origin
+/// is the tag minus the tag's offset turned by the body's last known orientation).
 struct RangingTag {
   int marker = -1;                                   ///< >= 0: the marker id; -1: on `body`
   std::string body;                                  ///< config bodies[].name when marker < 0
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< the tag in the body's frame, m
+  double height = 0.0;                               ///< on a marker: the tag this far above the marker's centre, m
 
   static RangingTag on_marker(int id) {
     RangingTag t;
