@@ -1,5 +1,9 @@
 #include "range_link.h"
 
+#include <algorithm>
+
+#include <spdlog/spdlog.h>
+
 #include "ips/core/clock.h"
 
 namespace ipsd {
@@ -17,11 +21,25 @@ void RangeLink::attach(ObservationQueue* queue) {
   queue_ = queue;
 }
 
+void RangeLink::log_anchor(const ips::AnchorEvent& e) {
+  // Once per change of verdict: an anchor that reads moved stays in `ips status` meanwhile.
+  if (e.kind == ips::AnchorEvent::Kind::kMoved)
+    spdlog::warn(
+        "ranging: anchor {} reads {:.1f} +- {:.1f} cm from its configured position ({:+.1f} {:+.1f} {:+.1f} cm) "
+        "by the ranges taken under the cameras: knocked, remounted or mistyped? (ranging.anchors, "
+        "docs/ranging.md \"The daemon's anchor survey\")",
+        e.anchor, 100 * e.shift.norm(), 100 * e.sigma_m, 100 * e.shift.x(), 100 * e.shift.y(), 100 * e.shift.z());
+  else
+    spdlog::info("ranging: anchor {} reads within {:.1f} cm of its configured position again", e.anchor,
+                 100 * std::max(ips::AnchorSurveyor::kMovedM, 3 * e.sigma_m));
+}
+
 void RangeLink::on_firing(ips::AdmittedFiring&& firing) {
   // The firing's time on this host's realtime clock, from its monotonic placement.
   const std::int64_t t_real = firing.t_mono_ns + ips::realtime_minus_monotonic_ns();
   std::lock_guard lock(mutex_);
   auto observation = fixer_.fix(firing, t_real);
+  for (const ips::AnchorEvent& e : fixer_.take_anchor_events()) log_anchor(e);
   if (!observation) return;
   if (!queue_) {
     ++detached_;

@@ -34,6 +34,7 @@ class RangeLink {
 
  private:
   void on_firing(ips::AdmittedFiring&& firing);
+  static void log_anchor(const ips::AnchorEvent& e);
 
   ips::RangingConfig config_;
   mutable std::mutex mutex_;  // fixer_ and queue_ (the input's thread vs attach / status)

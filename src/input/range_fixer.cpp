@@ -50,7 +50,9 @@ void RangeFixer::survey(const std::vector<Corrected>& ranges, const AdmittedFiri
   const double moved = 0.5 * 1.0 * dt * dt;  // an unknown acceleration of up to 1 m/s^2
   const double position_sigma = std::sqrt(seen->covariance.trace() / 3.0 + moved * moved);
   for (const Corrected& c : ranges)
-    if (!c.mobile) surveyor_.add(c.anchor, at, c.range_m, std::hypot(c.sigma_m, position_sigma));
+    if (!c.mobile)
+      if (auto event = surveyor_.add(c.anchor, at, c.range_m, std::hypot(c.sigma_m, position_sigma)))
+        anchor_events_.push_back(*event);
 }
 
 std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& admitted) {

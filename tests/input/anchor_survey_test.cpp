@@ -40,6 +40,7 @@ TEST(AnchorSurvey, FindsTheAnchorThatIsNotWhereTheConfigurationSays) {
   });
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<AnchorEvent> events;
   for (int i = 0; i < 1200; ++i) {  // 2 min at 10 Hz: 1200 samples per anchor
     now = static_cast<std::int64_t>(i) * 100'000'000;
     AdmittedFiring f;
@@ -49,7 +50,17 @@ TEST(AnchorSurvey, FindsTheAnchorThatIsNotWhereTheConfigurationSays) {
     for (const auto& [id, p] : mounted)
       f.firing.entries.push_back({id, false, (p - truth(1e-9 * static_cast<double>(now))).norm() + noise(rng), 0.02});
     fixer.fix(f, 0);
+    for (const AnchorEvent& e : fixer.take_anchor_events()) events.push_back(e);
   }
+  // The log's verdicts: the knocked anchor once, the others never.
+  for (const AnchorEvent& e : events)
+    std::printf("event: anchor %u %s, %.1f +- %.1f cm\n", e.anchor,
+                e.kind == AnchorEvent::Kind::kMoved ? "moved" : "back", 100 * e.shift.norm(), 100 * e.sigma_m);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, AnchorEvent::Kind::kMoved);
+  EXPECT_EQ(events[0].anchor, 2u);
+  EXPECT_NEAR(events[0].shift.head<2>().norm(), 0.15, 0.03);
+  EXPECT_LT(events[0].sigma_m, 0.05);
   const auto surveys = fixer.anchor_surveys();
   ASSERT_EQ(surveys.size(), 4u);
   for (const AnchorSurvey& s : surveys) {

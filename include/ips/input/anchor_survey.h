@@ -19,6 +19,16 @@
 
 namespace ips {
 
+/// A change in an anchor's verdict, for the log: it reads moved (its estimated position is
+/// further than kMovedM and 3 sigma from the configured one), or back within that.
+struct AnchorEvent {
+  enum class Kind { kMoved, kBack };
+  Kind kind = Kind::kMoved;
+  std::uint32_t anchor = 0;
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();  ///< estimated - configured, m
+  double sigma_m = 0;                               ///< 1-sigma of the shift's length, m
+};
+
 struct AnchorSurvey {
   std::uint32_t anchor = 0;
   Eigen::Vector3d configured = Eigen::Vector3d::Zero();
@@ -34,9 +44,13 @@ class AnchorSurveyor {
 
   AnchorSurveyor(std::vector<std::uint32_t> ids, std::vector<Eigen::Vector3d> configured);
 
+  /// A shift smaller than this (m) is not called a move, however certain.
+  static constexpr double kMovedM = 0.10;
+
   /// A range to anchor `index` (corrected by its configured bias and scale) measured with the
-  /// tag at `tag`; `sigma_m` covers the range and the tag's position.
-  void add(std::size_t index, const Eigen::Vector3d& tag, double range_m, double sigma_m);
+  /// tag at `tag`; `sigma_m` covers the range and the tag's position. Returns the anchor's
+  /// event when this sample's estimate changed its verdict.
+  std::optional<AnchorEvent> add(std::size_t index, const Eigen::Vector3d& tag, double range_m, double sigma_m);
 
   std::vector<AnchorSurvey> surveys() const;
 
@@ -46,6 +60,7 @@ class AnchorSurveyor {
     std::uint64_t total = 0;
     std::size_t since_estimate = 0;
     std::optional<AnchorCalibration> estimate;
+    bool moved = false;  // the verdict last reported
   };
   std::vector<std::uint32_t> ids_;
   std::vector<Eigen::Vector3d> configured_;

@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -111,6 +112,8 @@ class RangeFixer {
   /// (Camera frames reach fusion after a firing of the same instant: the state at hand is
   /// 100-300 ms older than the firing; it is moved to the firing time by its velocity.)
   static constexpr std::int64_t kSurveyAge = kCameraReferenceAge;
+  /// The anchor survey's verdicts that changed since the last call (for the log).
+  std::vector<AnchorEvent> take_anchor_events() { return std::exchange(anchor_events_, {}); }
 
  private:
   /// One range of a firing, corrected and with its reference placed.
@@ -135,6 +138,7 @@ class RangeFixer {
   std::map<std::uint32_t, RangeTracker> trackers_;               // by tag
   std::map<std::uint32_t, std::int64_t> camera_reference_used_;  // by tag: the last camera state's time fed
   AnchorSurveyor surveyor_;
+  std::vector<AnchorEvent> anchor_events_;
   void survey(const std::vector<Corrected>& ranges, const AdmittedFiring& firing, const RangingTag& tag);
   /// A tag's recent firings (by firing counter), for the odometry of the next one.
   struct PastFiring {
