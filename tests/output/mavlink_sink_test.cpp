@@ -307,6 +307,61 @@ TEST(MavlinkSink, AVehicleWhoseMarkerIsOnABodyGetsTheBodysPose) {
   EXPECT_EQ(poses_seen, 1);
 }
 
+// Out of the cameras' view a body placed by its tag's ranges alone names no marker: the vehicle
+// whose marker was last seen on that body still gets it, with the held yaw and its variance.
+TEST(MavlinkSink, ABodyPlacedByRangesAloneReachesTheVehicleWithItsYawHeld) {
+  support::UdpReceiver rx;
+  OutputConfig config = mavlink_to(rx.port);
+  config.mavlink.vehicles.resize(1);  // marker 3
+  config.mavlink.odometry = false;
+  auto sink = make_output_sink(config, 0);
+  Datagram d;
+  d.version = 2;
+  d.has_sources = true;
+  d.capture_monotonic_ns = 5'000'000'000LL;
+  d.capture_realtime_ns = 1'700'000'000'000'000'000LL;
+  BodyRecord seen;
+  seen.name = "robot";
+  seen.x = 1.5, seen.y = 2.0, seen.yaw = 0.3;
+  seen.has_yaw = true;
+  seen.ids = {2, 3};
+  seen.id_count = 2;
+  seen.camera_mask = 1;
+  seen.covariance = {4e-6, 0, 0, 4e-6, 0, 4e-6};
+  d.bodies = {seen};
+  sink->publish(d);
+  BodyRecord ranged = seen;
+  ranged.x = 2.5;
+  ranged.ids.clear();
+  ranged.id_count = 0;
+  ranged.camera_mask = 0;
+  ranged.has_yaw = false;  // 0.3 held
+  ranged.sources = IPS_WIRE_SOURCE_RANGES;
+  ranged.covariance = {0.0025, 0, 0, 0.0025, 0, 0.0025};
+  d.capture_monotonic_ns += 100'000'000;
+  d.bodies = {ranged};
+  sink->publish(d);
+  BodyRecord stranger = ranged;  // another body placed by ranges: not this vehicle's
+  stranger.name = "stranger";
+  d.capture_monotonic_ns += 100'000'000;
+  d.bodies = {stranger};
+  sink->publish(d);
+  std::vector<std::pair<float, float>> xs;  // x, yaw variance
+  for (const auto& f : drain(rx)) {
+    const FrameHead h = head(f);
+    if (h.msgid != mavlink::kMsgVisionPositionEstimate) continue;
+    float x = 0, yaw_variance = 0;
+    std::memcpy(&x, h.payload.data() + 8, 4);
+    std::memcpy(&yaw_variance, h.payload.data() + 32 + 4 * 20, 4);  // covariance[20]: yaw, yaw
+    xs.emplace_back(x, yaw_variance);
+  }
+  ASSERT_EQ(xs.size(), 2u);
+  EXPECT_FLOAT_EQ(xs[0].first, static_cast<float>(lab_to_ned(marker(3, 1.5, 2.0, 0.0, 0.3), 30 * kDeg, 0.0).n));
+  EXPECT_FLOAT_EQ(xs[1].first, static_cast<float>(lab_to_ned(marker(3, 2.5, 2.0, 0.0, 0.3), 30 * kDeg, 0.0).n));
+  EXPECT_LT(xs[0].second, 1.0f);
+  EXPECT_FLOAT_EQ(xs[1].second, static_cast<float>(kHeldYawVariance));
+}
+
 TEST(MavlinkSink, ABodysOdometryCarriesItsVelocityAndYawRate) {
   const std::string why = test::node_missing_reason();
   if (!why.empty()) GTEST_SKIP() << why;
