@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -266,16 +267,27 @@ TEST(MavlinkSink, RateLimitResetCounterAndOneHeartbeatPerSecond) {
   EXPECT_EQ(s.description, "mavlink 127.0.0.1:" + std::to_string(rx.port) + " (1 vehicle(s))");
 }
 
-TEST(MavlinkSink, AVehicleWhoseMarkerIsOnABodyGetsTheBodysPose) {
-  support::UdpReceiver rx;
-  OutputConfig config = mavlink_to(rx.port);
+// One vehicle (marker 3) without ODOMETRY, and a version-2 update at a fixed instant: the
+// body tests' sink and datagram.
+std::unique_ptr<OutputSink> marker_3_sink(std::uint16_t port) {
+  OutputConfig config = mavlink_to(port);
   config.mavlink.vehicles.resize(1);  // marker 3
   config.mavlink.odometry = false;
-  auto sink = make_output_sink(config, 0);
+  return make_output_sink(config, 0);
+}
+
+Datagram body_update() {
   Datagram d;
   d.version = 2;
   d.capture_monotonic_ns = 5'000'000'000LL;
   d.capture_realtime_ns = 1'700'000'000'000'000'000LL;
+  return d;
+}
+
+TEST(MavlinkSink, AVehicleWhoseMarkerIsOnABodyGetsTheBodysPose) {
+  support::UdpReceiver rx;
+  auto sink = marker_3_sink(rx.port);
+  Datagram d = body_update();
   BodyRecord other, mine;
   other.name = "other";  // lists marker 3 too, but without a yaw: skipped
   other.ids = {3};
@@ -311,15 +323,9 @@ TEST(MavlinkSink, AVehicleWhoseMarkerIsOnABodyGetsTheBodysPose) {
 // whose marker was last seen on that body still gets it, with the held yaw and its variance.
 TEST(MavlinkSink, ABodyPlacedByRangesAloneReachesTheVehicleWithItsYawHeld) {
   support::UdpReceiver rx;
-  OutputConfig config = mavlink_to(rx.port);
-  config.mavlink.vehicles.resize(1);  // marker 3
-  config.mavlink.odometry = false;
-  auto sink = make_output_sink(config, 0);
-  Datagram d;
-  d.version = 2;
+  auto sink = marker_3_sink(rx.port);
+  Datagram d = body_update();
   d.has_sources = true;
-  d.capture_monotonic_ns = 5'000'000'000LL;
-  d.capture_realtime_ns = 1'700'000'000'000'000'000LL;
   BodyRecord seen;
   seen.name = "robot";
   seen.x = 1.5, seen.y = 2.0, seen.yaw = 0.3;
