@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <utility>
 
 #include <spdlog/fmt/fmt.h>
 #include <nlohmann/json.hpp>
@@ -131,9 +132,14 @@ int run_status(const StatusOptions& o) {
           std::printf(" %s %llu", what.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
       std::printf("; camera positions used %llu\n", count(r, "camera_references"));
     }
-    if (const auto odometry = r.value("odometry", nlohmann::json::object()); !odometry.empty()) {
-      std::printf("    odometry:");
-      for (const auto& [what, n] : odometry.items())
+    // Counts by word on one line: what odometry did; what ranges to other tags did to those
+    // tags' own tracks (ranging.track.mutual).
+    for (const auto& [key, label] :
+         {std::pair{"odometry", "odometry"}, std::pair{"mutual", "ranges to tags, on their tracks"}}) {
+      const auto counts = r.value(key, nlohmann::json::object());
+      if (counts.empty()) continue;
+      std::printf("    %s:", label);
+      for (const auto& [what, n] : counts.items())
         if (n.is_number_unsigned())
           std::printf(" %s %llu", what.c_str(), static_cast<unsigned long long>(n.get<std::uint64_t>()));
       std::printf("\n");

@@ -112,6 +112,7 @@ nlohmann::json RangeLink::status() const {
           {"camera_references", fixes.camera_references},
           {"ranges", ranges},
           {"odometry", fixes.odometry},
+          {"mutual", fixes.mutual},
           {"tracks", tracks},
           {"anchors", anchors},
           {"fixes_dropped_while_restarting", detached_}};

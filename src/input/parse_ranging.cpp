@@ -96,6 +96,7 @@ RangingConfig parse_ranging(const YAML::Node& node, const std::string& file) {
       m.get_number("bias_sigma", o.bias_sigma_m, 0.0, true);
       m.get_number("reorder_window", o.reorder_window_s, 0.0, false);
       m.get("camera_reference", c.track_camera_reference);
+      m.get("mutual", c.track_mutual);
       if (o.reorder_window_s > 10) m.fail(t["reorder_window"], "ranging.track.reorder_window", "must be <= 10 s");
       m.finish();
     } else {

@@ -67,17 +67,21 @@ std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& adm
       std::optional<MobileReference> state;
       if (other != config_.tags.end() && state_of_) state = state_of_(other->second);
       const std::int64_t age = state ? admitted.t_mono_ns - state->t_mono_ns : 0;
+      Corrected c;
+      c.mobile = true;
+      c.other_tag = e.reference;
+      c.range_m = air * e.range_m;
+      c.sigma_m = e.sigma_m > 0 ? e.sigma_m : config_.sigma_m;
       if (!state || age > RangeFixer::kMobileReferenceAge || age < -RangeFixer::kMobileReferenceAge) {
+        // Of no use to this tag; the other tag's own track may still take it (track.mutual).
         ++counters_.mobile_references_unknown;
+        c.reference_known = false;
+        if (other != config_.tags.end()) out.push_back(c);
         continue;
       }
       const double dt = 1e-9 * static_cast<double>(age);
       const double moved = 0.5 * 1.0 * dt * dt;  // an unknown acceleration of up to 1 m/s^2
-      Corrected c;
-      c.mobile = true;
       c.reference = state->position + dt * state->velocity;
-      c.range_m = air * e.range_m;
-      c.sigma_m = e.sigma_m > 0 ? e.sigma_m : config_.sigma_m;
       c.reference_sigma_m = std::sqrt(state->covariance.trace() / 3.0 + moved * moved);
       out.push_back(c);
       ++counters_.mobile_references;
@@ -140,7 +144,7 @@ std::optional<WorldObservation> RangeFixer::solve(const std::vector<Corrected>& 
   std::vector<RangeToAnchor> ranges;
   ranges.reserve(corrected.size() + 1);
   for (const Corrected& c : corrected)
-    ranges.push_back({c.reference, c.range_m, std::hypot(c.sigma_m, c.reference_sigma_m)});
+    if (c.reference_known) ranges.push_back({c.reference, c.range_m, std::hypot(c.sigma_m, c.reference_sigma_m)});
   if (const RangeFiring& f = admitted.firing; f.odometry_m) {
     // The distance travelled is a range to where the previous firing put the tag.
     const PastFiring* previous = previous_firing(admitted);
@@ -174,8 +178,7 @@ std::optional<WorldObservation> RangeFixer::solve(const std::vector<Corrected>& 
 std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& corrected,
                                                   const AdmittedFiring& admitted, const RangingTag& tag,
                                                   std::int64_t t_real_ns) {
-  RangeTracker& tracker =
-      trackers_.try_emplace(admitted.firing.tag, anchor_positions_, config_.track_options).first->second;
+  RangeTracker& tracker = tracker_of(admitted.firing.tag);
   const std::int64_t t = admitted.t_mono_ns;
   // The cameras' view of this tag's own robot, once per camera-placed state: a position
   // measurement at its own time (the track applies it in its place among the ranges).
@@ -189,8 +192,12 @@ std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& 
       if (u == RangeUpdate::kAccepted || u == RangeUpdate::kStarted) ++counters_.camera_references;
     }
   }
+  // This tag's state before its own ranges: the reference its ranges to other tags give them.
+  const std::optional<RangeTrackState> before = config_.track_mutual ? tracker.state_at(t) : std::nullopt;
   bool used = false;
   for (const Corrected& c : corrected) {
+    if (before && c.mobile) share_range(c, *before, t);
+    if (!c.reference_known) continue;
     const RangeUpdate u = c.mobile ? tracker.add_mobile_range(t, c.reference, c.reference_sigma_m, c.range_m, c.sigma_m)
                                    : tracker.add_anchor_range(t, c.anchor, c.range_m, c.sigma_m);
     ++counters_.ranges[range_update_word(u)];
@@ -220,6 +227,31 @@ std::optional<WorldObservation> RangeFixer::track(const std::vector<Corrected>& 
   fix.covariance = state->covariance;
   ++counters_.fixes;
   return range_fix_observation(fix, tag.marker, static_cast<int>(admitted.firing.tag), t, t_real_ns);
+}
+
+RangeTracker& RangeFixer::tracker_of(std::uint32_t tag) {
+  return trackers_.try_emplace(tag, anchor_positions_, config_.track_options).first->second;
+}
+
+void RangeFixer::share_range(const Corrected& c, const RangeTrackState& from, std::int64_t t_ns) {
+  const auto other = config_.tags.find(c.other_tag);
+  if (other == config_.tags.end()) return;
+  // Where the cameras place the other robot its track takes their position instead: the
+  // range would add little, and the two tracks' errors would no longer be independent.
+  if (state_of_) {
+    const auto seen = state_of_(other->second);
+    if (seen && seen->seen_by_cameras && std::abs(t_ns - seen->t_mono_ns) <= kCameraReferenceAge) return;
+  }
+  RangeTracker& tracker = tracker_of(c.other_tag);
+  // The firing tag's uncertainty along the line to the other (the only direction a range
+  // measures); before the other's track has a state, the mean over the axes.
+  double variance = from.covariance.trace() / 3.0;
+  if (const auto to = tracker.state_at(t_ns); to && (to->position - from.position).norm() > 1e-3) {
+    const Eigen::Vector3d u = (to->position - from.position).normalized();
+    variance = u.dot(from.covariance * u);
+  }
+  const RangeUpdate u = tracker.add_mobile_range(t_ns, from.position, std::sqrt(variance), c.range_m, c.sigma_m);
+  ++counters_.mutual[range_update_word(u)];
 }
 
 std::vector<RangeTrackSummary> RangeFixer::tracks() const {

@@ -129,7 +129,8 @@ ranging:
   height: 0.1
   sigma: 0.05
   ultrasound: {temperature: 21.5, assumed_speed: 343}
-  track: {process_noise: 0.3, gate: 4, learn_bias: true, bias_sigma: 0.03, reorder_window: 0.5, camera_reference: true}
+  track: {process_noise: 0.3, gate: 4, learn_bias: true, bias_sigma: 0.03, reorder_window: 0.5, camera_reference: true,
+          mutual: true}
   anchors:
     - {id: 1, x: 0, y: 0, z: 2.5, bias: 0.02, scale: 1.0, sigma: 0.04}
     - {id: 2, x: 4, y: 0, z: 2.5}

@@ -64,6 +64,9 @@ TEST_F(RangingConfig, OffWithoutTheSectionAndItsDefaultsWithIt) {
   EXPECT_EQ(t.track_options.bias_learning, RangeTrackerOptions::BiasLearning::kOff);
   EXPECT_EQ(parse_text(with("  track: {learn_bias: true}\n")).ranging.track_options.bias_learning,
             RangeTrackerOptions::BiasLearning::kOn);
+  // A range between two tags updates both tracks unless track.mutual is false.
+  EXPECT_TRUE(c.track_mutual);
+  EXPECT_FALSE(parse_text(with("  track: {mutual: false}\n")).ranging.track_mutual);
 }
 
 TEST_F(RangingConfig, MistakesAreRefusedNamingTheKey) {

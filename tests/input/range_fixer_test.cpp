@@ -244,7 +244,7 @@ TEST(RangeFixer, TheCamerasCalibrateTheAnchorsAndTheRangesCarryOnWhereTheyStop) 
   EXPECT_EQ(without.camera_references, 0u);
   EXPECT_NEAR(with.bias_2, 0.08, 0.005);
   ASSERT_GT(with.after_2d.size(), 390u);
-  // Measured: 78.8 mm learnt (21.7 without the cameras); out of view p95 23.3 mm (61.7).
+  // Measured: 78.8 mm learnt (not learnt without the cameras: too few anchors); out of view p95 23.3 mm (101.9).
   EXPECT_LT(p95(with.after_2d), 0.5 * p95(without.after_2d));
   EXPECT_LT(p95(with.after_2d), 0.03);
 }

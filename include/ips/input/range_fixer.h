@@ -31,6 +31,9 @@ struct RangeFixCounters {
   /// Ranges to another tag left out: its robot has no published position within
   /// RangeFixer::kMobileReferenceAge of the firing.
   std::uint64_t mobile_references_unknown = 0;
+  /// ranging.track.mutual: ranges to another tag also applied to that tag's own track (its
+  /// robot not placed by the cameras), by what they did there (range_update_word).
+  std::map<std::string, std::uint64_t> mutual;
   /// ranging.track: what each range did to its tag's track, by range_update_word (accepted,
   /// rejected, initialising, started, out_of_order, invalid).
   std::map<std::string, std::uint64_t> ranges;
@@ -119,7 +122,9 @@ class RangeFixer {
   /// One range of a firing, corrected and with its reference placed.
   struct Corrected {
     bool mobile = false;
-    std::size_t anchor = 0;  // index into anchor_ids_ (fixed anchors)
+    std::uint32_t other_tag = 0;  // mobile: the tag ranged to
+    bool reference_known = true;  // mobile: its robot's state was at hand (else: only the mutual use)
+    std::size_t anchor = 0;       // index into anchor_ids_ (fixed anchors)
     Eigen::Vector3d reference = Eigen::Vector3d::Zero();
     double range_m = 0, sigma_m = 0;
     double reference_sigma_m = 0;  // mobile: the reference's own position uncertainty
@@ -129,6 +134,10 @@ class RangeFixer {
                                         const RangingTag& tag, std::int64_t t_real_ns);
   std::optional<WorldObservation> track(const std::vector<Corrected>& ranges, const AdmittedFiring& firing,
                                         const RangingTag& tag, std::int64_t t_real_ns);
+  /// ranging.track.mutual: the range `c` from the firing tag (its track's state `from` just
+  /// before this firing) to another tag, applied to that tag's track too.
+  void share_range(const Corrected& c, const RangeTrackState& from, std::int64_t t_ns);
+  RangeTracker& tracker_of(std::uint32_t tag);
 
   RangingConfig config_;
   StateOf state_of_;

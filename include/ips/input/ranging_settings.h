@@ -71,6 +71,11 @@ struct RangingConfig {
   /// bias against the cameras, and a robot that leaves the cameras' view is handed over from
   /// their position, not from a track of its own.
   bool track_camera_reference = true;
+  /// ranging.track.mutual: a range from one tag to another is a measurement of both: it also
+  /// updates the other tag's track, with the firing tag's state (and its covariance along the
+  /// line between them) as the reference, where the cameras do not place the other's robot.
+  /// One update of the pair's joint filter, their tracks taken as independent at that instant.
+  bool track_mutual = true;
 
   bool enabled() const { return input.port != 0; }
   bool operator==(const RangingConfig&) const = default;
