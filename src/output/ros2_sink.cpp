@@ -269,8 +269,8 @@ Ros2Sink::~Ros2Sink() {
 
 void Ros2Sink::publish(const Datagram& update) {
   {
-    const std::lock_guard<std::mutex> lock(mutex_);                 // held only to swap the slot, never across DDS
-    if (pending_) errors_.fetch_add(1, std::memory_order_relaxed);  // the writer fell behind: lost
+    const std::lock_guard<std::mutex> lock(mutex_);                   // held only to swap the slot, never across DDS
+    if (pending_) replaced_.fetch_add(1, std::memory_order_relaxed);  // the writer fell behind: never written
     pending_ = update;
   }
   wake_.notify_one();
@@ -281,6 +281,7 @@ OutputStats Ros2Sink::stats() const {
   s.description = description_;
   s.datagrams = samples_.load(std::memory_order_relaxed);
   s.send_errors = errors_.load(std::memory_order_relaxed);
+  s.counters = {{"replaced", replaced_.load(std::memory_order_relaxed)}};
   return s;
 }
 

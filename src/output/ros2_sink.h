@@ -50,7 +50,8 @@ class Ros2Sink final : public OutputSink {
   std::optional<Datagram> pending_;
   bool stop_ = false;
   std::atomic<std::uint64_t> samples_{0};
-  std::atomic<std::uint64_t> errors_{0};
+  std::atomic<std::uint64_t> errors_{0};    // DDS writes that failed
+  std::atomic<std::uint64_t> replaced_{0};  // updates replaced in the mailbox before the writer took them
   std::atomic<std::int64_t> last_latency_ns_{0};
   std::thread thread_;  // last: starts after everything it uses exists
 };
