@@ -36,13 +36,22 @@ Eigen::Vector3d robot_b(double t) {
   return {5.5 + 0.4 * std::cos(-w * t), 1.5 + 0.4 * std::sin(-w * t), 0.3};
 }
 
-MutualRun run_pair(bool mutual, bool b_ranges_to_a) {
+MutualRun run_pair(bool mutual, bool b_ranges_to_a, bool cameras_see_b = false) {
   RangingConfig c = test::ranging_lab();
   c.height = 0.3;
   c.tags[8] = RangingTag::on_marker(21);
   c.track_mutual = mutual;
   std::map<int, MobileReference> published;  // by marker
+  std::int64_t now = 0;
   RangeFixer fixer(c, [&](const RangingTag& carrier) -> std::optional<MobileReference> {
+    if (cameras_see_b && carrier.marker == 21) {  // the cameras' view of B: exact, now
+      MobileReference m;
+      m.t_mono_ns = now;
+      m.position = robot_b(1e-9 * static_cast<double>(now));
+      m.covariance = 1e-6 * Eigen::Matrix3d::Identity();
+      m.seen_by_cameras = true;
+      return m;
+    }
     const auto p = published.find(carrier.marker);
     if (p == published.end()) return std::nullopt;
     return p->second;
@@ -55,6 +64,7 @@ MutualRun run_pair(bool mutual, bool b_ranges_to_a) {
     const bool is_a = i % 2 == 0;
     const std::int64_t t_ns = 1'000'000'000 + static_cast<std::int64_t>(i) * 50'000'000;
     const double t = 1e-9 * static_cast<double>(t_ns);
+    now = t_ns;
     const Eigen::Vector3d a = robot_a(t), b = robot_b(t);
     AdmittedFiring f;
     f.firing.tag = is_a ? 7 : 8;
@@ -117,6 +127,18 @@ TEST(RangeFixerMutual, RobotsThatRangeEachOtherBothUseEveryRangeBetweenThem) {
   ASSERT_GE(on.b_2d.size(), 240u);
   EXPECT_LT(p95(on.b_2d), p95(off.b_2d));
   EXPECT_LT(on.b_outside_3_sigma, static_cast<int>(on.b_2d.size() / 20));
+}
+
+TEST(RangeFixerMutual, ARobotTheCamerasPlaceKeepsTheirPosition) {
+  // Where the cameras see B its track takes their position: A's ranges are not applied to it
+  // (they would add little, and B's track would then share A's errors), and A uses B as placed
+  // by the cameras.
+  const MutualRun seen = run_pair(true, false, /*cameras_see_b=*/true);
+  EXPECT_TRUE(seen.counters.mutual.empty());
+  EXPECT_EQ(seen.counters.mobile_references, 300u);
+  EXPECT_GE(seen.counters.camera_references, 290u);
+  ASSERT_GE(seen.b_2d.size(), 240u);
+  EXPECT_LT(p95(seen.b_2d), 0.01);
 }
 
 }  // namespace
