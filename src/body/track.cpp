@@ -9,13 +9,6 @@ namespace ips {
 
 namespace {
 
-KalmanOptions between_cameras_options(const BodyTrackOptions& o) {
-  KalmanOptions k;
-  k.process_noise = o.between_cameras_process_noise;
-  k.reset_after_s = 1.0;  // a fix every 150 ms at the least
-  return k;
-}
-
 FusedMarker as_marker(int body, const Eigen::Vector3d& p, std::int64_t t_ns) {
   FusedMarker m;
   m.id = body;
@@ -30,7 +23,7 @@ BodyTrack::BodyTrack(std::vector<BodyDef> bodies, const BodyTrackOptions& option
     : estimator_(std::move(bodies)),
       options_(options),
       tracks_(estimator_.bodies().size()),
-      between_cameras_(between_cameras_options(options)) {}
+      between_cameras_(between_cameras_options({}, options.between_cameras_process_noise)) {}
 
 Eigen::Vector3d BodyTrack::velocity(const Track& track) {
   // Newest minus oldest published position within the span: enough to move a view forward by

@@ -1,5 +1,7 @@
 #include "ips/fusion/kalman.h"
 
+#include <algorithm>
+
 #include <Eigen/Dense>
 
 namespace ips {
@@ -48,6 +50,12 @@ void MarkerTracker::update(FusedMarker& m, const Eigen::Vector3d& variance) {
     m.covariance(k, k) = t.axis[k].P(0, 0);
   }
   m.has_velocity = true;
+}
+
+KalmanOptions between_cameras_options(KalmanOptions base, double process_noise) {
+  base.process_noise = process_noise;
+  base.reset_after_s = std::max(1.0, base.reset_after_s);
+  return base;
 }
 
 }  // namespace ips

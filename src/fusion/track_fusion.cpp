@@ -90,17 +90,9 @@ Gaussian information_mean(const std::vector<Gaussian>& parts) {
 
 }  // namespace
 
-namespace {
-KalmanOptions between_cameras_options(const TrackFusionOptions& o) {
-  KalmanOptions k = o.kalman_options;
-  k.process_noise = o.between_cameras_process_noise;
-  k.reset_after_s = std::max(1.0, k.reset_after_s);  // a fix every 150 ms at the least
-  return k;
-}
-}  // namespace
-
 TrackFusion::TrackFusion(const TrackFusionOptions& options)
-    : options_(options), between_cameras_(between_cameras_options(options)) {
+    : options_(options),
+      between_cameras_(between_cameras_options(options.kalman_options, options.between_cameras_process_noise)) {
   if (options_.kalman) kalman_.emplace(options_.kalman_options);
 }
 

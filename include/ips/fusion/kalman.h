@@ -25,6 +25,11 @@ struct KalmanOptions {
   bool operator==(const KalmanOptions&) const = default;
 };
 
+/// The filter that carries a track between the cameras' views (fixes from ranges alone):
+/// `base` with `process_noise` (fusion.out_of_view_process_noise), and kept through gaps of up
+/// to 1 s at least (a fix every 150 ms at the least).
+KalmanOptions between_cameras_options(KalmanOptions base, double process_noise);
+
 /// Keeps one filter per marker id. Not thread-safe: owned by the fusion thread.
 class MarkerTracker {
  public:
