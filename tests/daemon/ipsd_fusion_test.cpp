@@ -89,6 +89,9 @@ class IpsdFusionTest : public ::testing::Test {
     nlohmann::json status;
     std::int64_t epoch = 0;
     std::string log;
+    /// The share of the cameras' frames (3 x kFps per second since the epoch) that the daemon
+    /// processed: below 1 where a busy machine rendered and detected fewer.
+    double frame_coverage = 0;
   };
 
   // Runs ipsd on `yaml` for `seconds` after the first datagram, and on while `enough` (if given)
@@ -125,6 +128,9 @@ class IpsdFusionTest : public ::testing::Test {
     }
     r.status = nlohmann::json::parse(test::read_unix_socket((*dir_ / "status.sock").string()));
     r.epoch = r.status["synthetic_epoch_mono_ns"];
+    double processed = 0;
+    for (const auto& c : r.status["cameras"]) processed += c.value("frames", 0.0);
+    r.frame_coverage = processed / (3 * kFps * 1e-9 * static_cast<double>(monotonic_ns() - r.epoch));
     r.log = test::read_file(log);
     return r;
   }
@@ -304,7 +310,7 @@ TEST_F(IpsdFusionTest, TwoCamerasTriangulateMarkersWithoutHeights) {
   });
   // Under the sanitizers the cameras skip most frames, so they rarely have two recent frames
   // to move a ray with and there may be nothing to triangulate: what comes is still checked.
-  if (test::kTimeScale == 1.0) {
+  if (test::kTimeScale == 1.0 && r.frame_coverage > 0.6) {
     ASSERT_FALSE(r.records.empty()) << r.log;
   }
   expect_per_marker_order(r.records);
@@ -319,12 +325,16 @@ TEST_F(IpsdFusionTest, TwoCamerasTriangulateMarkersWithoutHeights) {
         std::sqrt(std::pow(rec.m.x - truth.x, 2) + std::pow(rec.m.y - truth.y, 2) + std::pow(rec.m.z - truth.z, 2)));
     ++per_marker[rec.m.id];
   }
-  std::printf("[ ipsd    ] triangulated without heights: 3D error p95 %.2f mm over %zu records, markers seen %zu\n",
-              1e3 * p95(errors), errors.size(), per_marker.size());
+  std::printf(
+      "[ ipsd    ] triangulated without heights: 3D error p95 %.2f mm over %zu records, markers seen %zu, %.0f %% of "
+      "the frames processed\n",
+      1e3 * p95(errors), errors.size(), per_marker.size(), 100 * r.frame_coverage);
   if (!errors.empty()) {
     EXPECT_LE(p95(errors), 0.020);
   }
-  if (test::kTimeScale == 1.0) {
+  // Where the machine kept up. Starved (ctest -j2 beside 4 busy loops: 10 records of the static
+  // marker in 120 s), what came is still checked above.
+  if (test::kTimeScale == 1.0 && r.frame_coverage > 0.6) {
     EXPECT_GE(per_marker.size(), 2u);
   }
 }

@@ -8,8 +8,9 @@
 // the configured method).
 //
 // Velocity: each published pose carries the body's velocity and yaw rate, the newest minus the
-// oldest of its published poses within `velocity_span_s` (with the newest one) over their time
-// apart: the mean over the span, so it lags a turn by half the span. The first pose has none.
+// oldest of its published poses over their time apart, the oldest being the newest pose at or
+// before `velocity_span_s` ago (or the oldest within twice that): the mean over about the span,
+// so it lags a turn by half the span. The first pose has none.
 //
 // Order: a body is published only at a capture time >= its last published time; a frame that
 // arrives late (older than that) is merged into the history for later outputs but publishes
@@ -95,7 +96,7 @@ class BodyTrack {
       bool has_yaw = false;
       double yaw = 0.0;
     };
-    std::deque<Pose> path;  // recent published poses, within the velocity span
+    std::deque<Pose> path;  // recent published poses: the velocity span and one before it
     bool ranged = false;    // a tag's fix has come: between_cameras_ follows its camera poses too
   };
   static Eigen::Vector3d velocity(const Track& track);
