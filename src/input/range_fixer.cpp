@@ -72,6 +72,7 @@ std::vector<RangeFixer::Corrected> RangeFixer::correct(const AdmittedFiring& adm
       c.other_tag = e.reference;
       c.range_m = air * e.range_m;
       c.sigma_m = e.sigma_m > 0 ? e.sigma_m : config_.sigma_m;
+      c.placed_by_cameras = state && state->seen_by_cameras && std::abs(age) <= kCameraReferenceAge;
       if (!state || age > RangeFixer::kMobileReferenceAge || age < -RangeFixer::kMobileReferenceAge) {
         // Of no use to this tag; the other tag's own track may still take it (track.mutual).
         ++counters_.mobile_references_unknown;
@@ -234,14 +235,9 @@ RangeTracker& RangeFixer::tracker_of(std::uint32_t tag) {
 }
 
 void RangeFixer::share_range(const Corrected& c, const RangeTrackState& from, std::int64_t t_ns) {
-  const auto other = config_.tags.find(c.other_tag);
-  if (other == config_.tags.end()) return;
   // Where the cameras place the other robot its track takes their position instead: the
   // range would add little, and the two tracks' errors would no longer be independent.
-  if (state_of_) {
-    const auto seen = state_of_(other->second);
-    if (seen && seen->seen_by_cameras && std::abs(t_ns - seen->t_mono_ns) <= kCameraReferenceAge) return;
-  }
+  if (c.placed_by_cameras) return;
   RangeTracker& tracker = tracker_of(c.other_tag);
   // The firing tag's uncertainty along the line to the other (the only direction a range
   // measures); before the other's track has a state, the mean over the axes.

@@ -122,9 +122,10 @@ class RangeFixer {
   /// One range of a firing, corrected and with its reference placed.
   struct Corrected {
     bool mobile = false;
-    std::uint32_t other_tag = 0;  // mobile: the tag ranged to
-    bool reference_known = true;  // mobile: its robot's state was at hand (else: only the mutual use)
-    std::size_t anchor = 0;       // index into anchor_ids_ (fixed anchors)
+    std::uint32_t other_tag = 0;     // mobile: the tag ranged to
+    bool reference_known = true;     // mobile: its robot's state was at hand (else: only the mutual use)
+    bool placed_by_cameras = false;  // mobile: that state is the cameras', within kCameraReferenceAge
+    std::size_t anchor = 0;          // index into anchor_ids_ (fixed anchors)
     Eigen::Vector3d reference = Eigen::Vector3d::Zero();
     double range_m = 0, sigma_m = 0;
     double reference_sigma_m = 0;  // mobile: the reference's own position uncertainty
