@@ -20,7 +20,7 @@ LAYERS = [
     ["mapping", "ranging"],  # camera -> world; positions from ranges
     ["fusion"],
     ["output"],
-    ["body", "calib", "collect", "input", "survey", "web"],  # input: network inputs of the daemon (ranges)
+    ["body", "calib", "collect", "input", "insideout", "survey", "web"],  # input: network inputs of the daemon (ranges); insideout: a camera on a robot reading the ceiling
     ["sim"],
     ["config"],
 ]
