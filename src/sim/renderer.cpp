@@ -22,7 +22,8 @@ namespace ips::sim {
 namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
-constexpr double kWallGrey = 55.0;  // what is seen beyond the floor's edge
+constexpr double kWallGrey = 55.0;      // what is seen beyond the floor's edge
+constexpr double kCeilingGrey = 170.0;  // a camera looking up sees a plain, light ceiling
 enum Region { kOffPlate = 0, kMargin = 1, kBlack = 2, kWhite = 3 };
 
 // Corners of the black square in marker units (x right, y up as printed), ArUco order.
@@ -165,8 +166,10 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
           continue;
         }
         const Eigen::Vector3d d = cam.R_wc * Eigen::Vector3d(n.x, n.y, 1.0);
-        double grey = kWallGrey;
-        if (d.z() < -1e-9) {
+        double grey = cam.looks_up ? kCeilingGrey : kWallGrey;
+        // A camera looking up sees the ceiling wherever it is: its background cannot depend
+        // on where a riding camera is (what lies below its horizon is drawn as ceiling too).
+        if (d.z() < -1e-9 && !cam.looks_up) {
           const double t = -cam.position.z() / d.z();
           const double wx = cam.position.x() + t * d.x();
           const double wy = cam.position.y() + t * d.y();
@@ -184,7 +187,10 @@ CameraRenderer::CameraRenderer(const Scene& scene, std::size_t camera_index)
 }
 
 MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose& pose) const {
-  const SceneCamera& cam = camera();
+  return truth_in(camera(), marker, pose);
+}
+
+MarkerTruth CameraRenderer::truth_in(const SceneCamera& cam, const SceneMarker& marker, const MarkerPose& pose) const {
   MarkerTruth t;
   t.id = marker.id;
   t.pose = pose;
@@ -210,37 +216,47 @@ MarkerTruth CameraRenderer::truth_of(const SceneMarker& marker, const MarkerPose
 
 std::vector<MarkerTruth> CameraRenderer::truth(double time) const {
   std::vector<MarkerTruth> out;
+  const SceneCamera cam = scene_.camera_at(camera_index_, time);
   for (std::size_t i = 0; i < scene_.markers.size(); ++i) {
-    out.push_back(truth_of(scene_.markers[i], scene_.marker_pose_at(i, time)));
+    out.push_back(truth_in(cam, scene_.markers[i], scene_.marker_pose_at(i, time)));
   }
   return out;
 }
 
 void CameraRenderer::render(double t, cv::Mat& gray, std::uint64_t noise_index) const {
-  std::vector<PlacedMarker> placed;
   const auto& rs = scene_.render;
+  // The instants of the exposure; a riding camera moves across them too (motion blur).
+  std::vector<double> times{t};
+  if (rs.exposure > 0 && rs.blur_samples > 1) {
+    times.clear();
+    for (int k = 0; k < rs.blur_samples; ++k) {
+      times.push_back(t + rs.exposure * (k / static_cast<double>(rs.blur_samples - 1) - 0.5));
+    }
+  }
+  std::vector<SceneCamera> cams;
+  for (double ti : times) cams.push_back(scene_.camera_at(camera_index_, ti));
+  background_.copyTo(gray);
   for (std::size_t i = 0; i < scene_.markers.size(); ++i) {
     PlacedMarker p{scene_.markers[i], {}};
-    if (rs.exposure > 0 && rs.blur_samples > 1) {
-      for (int k = 0; k < rs.blur_samples; ++k) {
-        const double dt = rs.exposure * (k / static_cast<double>(rs.blur_samples - 1) - 0.5);
-        p.poses.push_back(scene_.marker_pose_at(i, t + dt));
-      }
-    } else {
-      p.poses.push_back(scene_.marker_pose_at(i, t));
+    std::vector<SceneCamera> seen_by;
+    for (std::size_t k = 0; k < times.size(); ++k) {
+      const MarkerPose pose = scene_.marker_pose_at(i, times[k]);
+      // A marker picked up during the exposure is drawn only for the time it was there.
+      if (!pose.present || !faces_camera(pose, cams[k])) continue;
+      p.poses.push_back(pose);
+      seen_by.push_back(cams[k]);
     }
-    // A marker picked up during the exposure is drawn only for the time it was there.
-    std::erase_if(p.poses, [&](const MarkerPose& pose) { return !pose.present || !faces_camera(pose, camera()); });
     if (p.poses.empty()) continue;
-    placed.push_back(std::move(p));
+    draw_marker(p, seen_by, gray);
   }
-  render_markers(placed, gray, noise_index);
+  add_noise(gray, noise_index);
 }
 
 void CameraRenderer::render_markers(const std::vector<PlacedMarker>& markers, cv::Mat& gray,
                                     std::uint64_t noise_index) const {
   background_.copyTo(gray);
-  for (const auto& m : markers) draw_marker(m, gray);
+  const std::vector<SceneCamera> cams{camera()};
+  for (const auto& m : markers) draw_marker(m, cams, gray);
   add_noise(gray, noise_index);
 }
 
@@ -262,9 +278,9 @@ void CameraRenderer::add_noise(cv::Mat& gray, std::uint64_t noise_index) const {
   }
 }
 
-void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
+void CameraRenderer::draw_marker(const PlacedMarker& pm, const std::vector<SceneCamera>& cams, cv::Mat& gray) const {
   const SceneMarker& mk = pm.marker;
-  const SceneCamera& cam = camera();
+  auto cam_of = [&](std::size_t k) -> const SceneCamera& { return cams.size() == 1 ? cams[0] : cams[k]; };
   const cv::Mat pattern = marker_pattern(scene_.dictionary, mk.id);
   const int cells = pattern.rows;
   const double half_plate = 0.5 + (mk.margin >= 0 ? mk.margin / mk.length : 1.0 / cells);
@@ -272,7 +288,9 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
   // Bounding box: the plate's outline, densely sampled (fisheye edges curve), every pose.
   double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
   constexpr int kPerEdge = 16;
-  for (const MarkerPose& pose : pm.poses) {
+  for (std::size_t j = 0; j < pm.poses.size(); ++j) {
+    const MarkerPose& pose = pm.poses[j];
+    const SceneCamera& cam = cam_of(j);
     for (int e = 0; e < 4; ++e) {
       for (int k = 0; k < kPerEdge; ++k) {
         const double s = -half_plate + 2 * half_plate * k / kPerEdge;
@@ -304,8 +322,10 @@ void CameraRenderer::draw_marker(const PlacedMarker& pm, cv::Mat& gray) const {
   cv::Mat acc(bh, bw, CV_32F, cv::Scalar(0));
   cv::Mat ab(bh, bw, CV_32FC2);
   cv::Mat region(bh, bw, CV_8S);
-  const Eigen::Matrix3d R = cam.R_wc;
-  for (const MarkerPose& pose : pm.poses) {
+  for (std::size_t k = 0; k < pm.poses.size(); ++k) {
+    const MarkerPose& pose = pm.poses[k];
+    const SceneCamera& cam = cam_of(k);
+    const Eigen::Matrix3d R = cam.R_wc;
     // The ray of each pixel meets the marker's plane (normal n through its centre) at t; the
     // hit's coordinates along the marker axes are (a, b) in marker units.
     const Eigen::Matrix3d f = pose.frame();

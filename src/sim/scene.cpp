@@ -152,9 +152,10 @@ void read_bodies(const SceneReader& r, const YAML::Node& bs, const std::filesyst
 
 }  // namespace
 
-Eigen::Matrix3d Scene::orientation(double roll, double pitch, double yaw) {
+Eigen::Matrix3d Scene::orientation(double roll, double pitch, double yaw, bool up) {
   Eigen::Matrix3d down;
   down << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // columns: camera x = world x, y = -world y, z = down
+  if (up) down.setIdentity();           // camera x = world x, y = world y, z = up
   return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
           Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
              .toRotationMatrix() *
@@ -230,7 +231,7 @@ Scene Scene::load(const std::filesystem::path& path) {
   for (std::size_t i = 0; cams && i < cams.size(); ++i) {
     const YAML::Node c = cams[i];
     const std::string p = "cameras[" + std::to_string(i) + "].";
-    r.only_keys(c, p, {"name", "intrinsics", "position", "rotation_deg"});
+    r.only_keys(c, p, {"name", "intrinsics", "position", "rotation_deg", "looking", "trajectory"});
     SceneCamera cam;
     cam.name = r.text(c, p, "name", "");
     if (cam.name.empty()) r.fail(c, p + "name", "missing");
@@ -246,12 +247,34 @@ Scene Scene::load(const std::filesystem::path& path) {
     } catch (const InputError& e) {
       r.fail(c["intrinsics"], p + "intrinsics", e.what());
     }
-    const auto pos = r.numbers(c, p, "position", 2, 3);
-    cam.position = {pos[0], pos[1], pos.size() > 2 ? pos[2] : 2.1};
-    if (!(cam.position.z() > 0.3)) r.fail(c["position"], p + "position", "camera must be > 0.3 m above the floor");
+    const std::string looking = r.text(c, p, "looking", "down");
+    if (looking != "down" && looking != "up") r.fail(c["looking"], p + "looking", "expected down or up");
+    cam.looks_up = looking == "up";
+    cam.rides = static_cast<bool>(c["trajectory"]);
+    const auto pos = r.numbers(c, p, "position", cam.rides ? 1 : 2, 3);
+    if (cam.rides && pos.size() != 1 && pos.size() != 3) {
+      r.fail(c["position"], p + "position",
+             "a riding camera takes [height] or [x, y, height] (x, y: where the robot starts)");
+    }
+    cam.position = pos.size() == 1 ? Eigen::Vector3d(0, 0, pos[0])
+                                   : Eigen::Vector3d(pos[0], pos[1], pos.size() > 2 ? pos[2] : 2.1);
+    if (cam.looks_up ? !(cam.position.z() >= 0) : !(cam.position.z() > 0.3)) {
+      r.fail(c["position"], p + "position",
+             cam.looks_up ? "the lens must be at or above the floor" : "camera must be > 0.3 m above the floor");
+    }
     std::vector<double> rot{0, 0, 0};
     if (c["rotation_deg"]) rot = r.numbers(c, p, "rotation_deg", 3, 3);
-    cam.R_wc = orientation(rot[0] * kDeg, rot[1] * kDeg, rot[2] * kDeg);
+    cam.R_wc = orientation(rot[0] * kDeg, rot[1] * kDeg, rot[2] * kDeg, cam.looks_up);
+    if (cam.rides) {
+      // rotation_deg is then the mount on the robot (x forward, y left, z up).
+      cam.R_mount = cam.R_wc;
+      cam.carrier_start.x = cam.position.x();
+      cam.carrier_start.y = cam.position.y();
+      cam.carrier = read_trajectory(r, c["trajectory"], p + "trajectory.", path.parent_path(), cam.carrier_start);
+      if (cam.carrier.kind == Trajectory::Kind::kPlacements) {
+        r.fail(c["trajectory"], p + "trajectory", "a camera rides a circle, line or waypoints, not placements");
+      }
+    }
     scene.cameras.push_back(std::move(cam));
   }
 
@@ -261,7 +284,7 @@ Scene Scene::load(const std::filesystem::path& path) {
     for (std::size_t i = 0; i < ms.size(); ++i) {
       const YAML::Node m = ms[i];
       const std::string p = "markers[" + std::to_string(i) + "].";
-      r.only_keys(m, p, {"id", "length", "margin", "x", "y", "height", "yaw_deg", "trajectory"});
+      r.only_keys(m, p, {"id", "length", "margin", "x", "y", "height", "yaw_deg", "trajectory", "facing"});
       SceneMarker mk;
       const double id = r.number(m, p, "id", 0, true);
       if (id < 0 || id != std::floor(id) || id > 1e9)  // beyond int: the cast would be undefined
@@ -283,6 +306,18 @@ Scene Scene::load(const std::filesystem::path& path) {
       mk.start.yaw = r.number(m, p, "yaw_deg", 0.0) * kDeg;
       if (m["trajectory"]) {
         mk.trajectory = read_trajectory(r, m["trajectory"], p + "trajectory.", path.parent_path(), mk.start);
+      }
+      const std::string facing = r.text(m, p, "facing", "up");
+      if (facing != "up" && facing != "down") r.fail(m["facing"], p + "facing", "expected up or down");
+      if (facing == "down") {
+        // On the ceiling, printed side down: seen from below it reads as printed, its x axis at
+        // yaw (ips/insideout/ceiling_map.h has the same convention).
+        if (m["trajectory"]) r.fail(m["facing"], p + "facing", "a marker facing down is fixed (no trajectory)");
+        const double c = std::cos(mk.start.yaw), s = std::sin(mk.start.yaw);
+        mk.start.tilted = true;
+        mk.start.axes.col(0) = Eigen::Vector3d(c, s, 0);
+        mk.start.axes.col(2) = Eigen::Vector3d(0, 0, -1);
+        mk.start.axes.col(1) = mk.start.axes.col(2).cross(mk.start.axes.col(0));
       }
       scene.markers.push_back(mk);
     }

@@ -137,6 +137,31 @@ BodyPose Scene::body_pose_at(std::size_t index, double t) const {
   return out;
 }
 
+MarkerPose Scene::carrier_pose_at(std::size_t index, double t) const {
+  const SceneCamera& c = cameras.at(index);
+  if (!c.rides) {
+    MarkerPose p;
+    p.x = c.position.x();
+    p.y = c.position.y();
+    p.z = c.position.z();
+    p.yaw = std::atan2(c.R_wc(1, 0), c.R_wc(0, 0));
+    return p;
+  }
+  MarkerPose p = pose_on_trajectory(c.carrier_start, c.carrier, t);
+  p.z = c.position.z();
+  p.yaw = std::atan2(std::sin(p.yaw), std::cos(p.yaw));
+  return p;
+}
+
+SceneCamera Scene::camera_at(std::size_t index, double t) const {
+  SceneCamera c = cameras.at(index);
+  if (!c.rides) return c;
+  const MarkerPose p = carrier_pose_at(index, t);
+  c.position = {p.x, p.y, p.z};
+  c.R_wc = Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * c.R_mount;
+  return c;
+}
+
 MarkerPose Scene::marker_pose(int id, double t) const {
   for (std::size_t i = 0; i < markers.size(); ++i) {
     if (markers[i].id == id) return marker_pose_at(i, t);

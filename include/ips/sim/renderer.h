@@ -54,9 +54,9 @@ class CameraRenderer {
   /// Renders an explicit set of markers (used by `ips sim collect`).
   void render_markers(const std::vector<PlacedMarker>& markers, cv::Mat& gray, std::uint64_t noise_index) const;
 
-  /// Truth of every scene marker at time t.
+  /// Truth of every scene marker at time t (a riding camera where it is at t).
   std::vector<MarkerTruth> truth(double t) const;
-  /// Truth of one marker at one pose.
+  /// Truth of one marker at one pose (the camera where it is at t = 0).
   MarkerTruth truth_of(const SceneMarker& marker, const MarkerPose& pose) const;
 
   const SceneCamera& camera() const { return scene_.cameras[camera_index_]; }
@@ -74,7 +74,9 @@ class CameraRenderer {
   void add_noise(cv::Mat& gray, std::uint64_t noise_index) const;
 
  private:
-  void draw_marker(const PlacedMarker& m, cv::Mat& gray) const;
+  /// `cams`: the camera at each of the marker's poses (one: the same for all).
+  void draw_marker(const PlacedMarker& m, const std::vector<SceneCamera>& cams, cv::Mat& gray) const;
+  MarkerTruth truth_in(const SceneCamera& cam, const SceneMarker& marker, const MarkerPose& pose) const;
 
   const Scene& scene_;
   std::size_t camera_index_;

@@ -78,8 +78,19 @@ struct SceneCamera {
   std::string name;
   std::filesystem::path intrinsics_path;
   CameraModel model;
-  Eigen::Vector3d position{0, 0, 2.1};  ///< optical centre in the world, metres
-  Eigen::Matrix3d R_wc;                 ///< columns: camera x, y, z axes in world coordinates
+  Eigen::Vector3d position{0, 0, 2.1};  ///< optical centre in the world, metres (riding: at t = 0)
+  Eigen::Matrix3d R_wc;                 ///< columns: camera x, y, z axes in world coordinates (riding: at t = 0)
+  /// `looking: up`: the camera faces the ceiling (image x along world x, image y along world y
+  /// before rotation_deg); it sees the ceiling's markers (markers[].facing: down).
+  bool looks_up = false;
+  /// A camera that rides on a robot (inside-out, docs/inside-out.md): the robot starts at
+  /// carrier_start (x, y; its heading follows the path, plus carrier_start.yaw) and follows
+  /// `carrier`; the lens keeps its height (position.z) and its rotation relative to the robot
+  /// (R_mount: camera axes in the robot frame, x forward, y left, z up).
+  bool rides = false;
+  Trajectory carrier;
+  MarkerPose carrier_start;
+  Eigen::Matrix3d R_mount = Eigen::Matrix3d::Identity();
 
   Eigen::Vector3d world_to_camera(const Eigen::Vector3d& p_world) const {
     return R_wc.transpose() * (p_world - position);
@@ -187,12 +198,18 @@ class Scene {
   /// order, then other tags); `rng` draws the noise and the dropouts.
   std::vector<SimRange> fire_tag(std::size_t index, double t, std::mt19937_64& rng) const;
 
+  /// Camera `index` at scene time t: itself, or for a riding camera its pose at t.
+  SceneCamera camera_at(std::size_t index, double t) const;
+  /// The robot a riding camera rides at scene time t: x, y, z (the lens height) and heading
+  /// (the robot's x axis); a fixed camera's own position and the heading of its image x axis.
+  MarkerPose carrier_pose_at(std::size_t index, double t) const;
+
   /// Index of the camera called `name`; throws ips::InputError listing the names if absent.
   std::size_t camera_index(const std::string& name) const;
 
-  /// The standard straight-down orientation rotated by roll, pitch, yaw (radians, about the
-  /// world x, y, z axes, applied in that order).
-  static Eigen::Matrix3d orientation(double roll, double pitch, double yaw);
+  /// The standard straight-down orientation (straight up with `up`) rotated by roll, pitch, yaw
+  /// (radians, about the world x, y, z axes, applied in that order).
+  static Eigen::Matrix3d orientation(double roll, double pitch, double yaw, bool up = false);
 };
 
 }  // namespace ips::sim
