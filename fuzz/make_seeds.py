@@ -170,6 +170,15 @@ def main():
         "seconds 12.5\ncamera red a.det\ncamera white b.det\n\0"
         "# t_ns id x0 y0 x1 y1 x2 y2 x3 y3\n0 7 100.0 100.0 140.0 100.0 140.0 140.0 100.0 140.0\n"
         "33333333 7 100.5 100.0 140.5 100.0 140.5 140.0 100.5 140.0\n66666666 12 10 10 20 10 20 20 10 20")
+    ceiling = ('{"format": "ips-ceiling-map", "version": 1, "dictionary": "DICT_4X4_100", "markers": ['
+               '{"id": 0, "x": 1.0, "y": 0.9, "z": 2.8, "yaw": -3.14, "length": 0.25},'
+               '{"id": 1, "x": 2.2, "y": 0.9, "z": 2.8, "yaw": -2.5, "length": 0.25, "sigma": [0.001, 0.001, 0.002, 0.01]},'
+               '{"id": 6, "x": 1.0, "y": 2.3, "z": 2.8, "yaw": 0.7, "length": 0.25}]}')
+    put("ceiling_map", "three_markers.json", ceiling)
+    put("ceiling_map", "with_robot_yaml.txt", ceiling + "\0camera:\n  intrinsics: up.yaml\n  mount: {offset: [0.1, 0, 0.25], "
+        "yaw_deg: 90}\nlocalise: {pixel_sigma: 0.5, outlier_px: 3, tilt_sigma_deg: 1}\n")
+    put("ceiling_map", "one_marker.json",
+        '{"format": "ips-ceiling-map", "version": 1, "markers": [{"id": 5, "x": 0, "y": 0, "z": 3, "yaw": 0, "length": 0.2}]}')
     put("det_session", "det_only.txt", "0 3 1 2 3 4 5 6 7 8\n1000 3 1.5 2 3 4 5 6 7 8\n")
     # Small JPEGs of a real photograph in the forms cameras and encoders produce (libturbojpeg
     # through ctypes: no image tool needed).
