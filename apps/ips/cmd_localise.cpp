@@ -13,14 +13,13 @@
 #include <vector>
 
 #include "command.h"
+#include "drive_input.h"
 #include "image_io.h"
-#include "ips/core/csv_fields.h"
 #include "ips/core/error.h"
 #include "ips/detect/detector.h"
 #include "ips/insideout/ceiling_map.h"
 #include "ips/insideout/localise.h"
 #include "ips/insideout/robot_config.h"
-#include "ips/survey/survey.h"
 
 namespace fs = std::filesystem;
 
@@ -30,81 +29,14 @@ struct Args {
   std::string map, config, images, session, camera, out;
 };
 
-struct FrameInput {
-  std::int64_t t_ns = 0;
-  std::string file;                           // --images: the frame to detect in
-  std::vector<ips::MarkerDetection> markers;  // --session: the recorded detections
-};
-
-// times.csv: header `file,t_ns`, one frame per row in capture order, files relative to DIR.
-std::vector<FrameInput> read_times(const fs::path& dir) {
-  const fs::path path = dir / "times.csv";
-  std::ifstream in(path);
-  if (!in) throw ips::InputError(path.string() + ": cannot open (expected a header file,t_ns and a row per frame)");
-  std::string line;
-  std::getline(in, line);
-  const auto header = ips::split_csv_line(line);
-  if (header.size() != 2 || header[0] != "file" || header[1] != "t_ns") {
-    throw ips::InputError(path.string() + ":1: expected the header file,t_ns");
-  }
-  std::vector<FrameInput> out;
-  for (int n = 2; std::getline(in, line); ++n) {
-    if (ips::trim_csv_field(line).empty()) continue;
-    const auto f = ips::split_csv_line(line);
-    const std::string at = path.string() + ":" + std::to_string(n);
-    if (f.size() != 2 || f[0].empty()) throw ips::InputError(at + ": expected file,t_ns");
-    FrameInput frame;
-    frame.file = (dir / std::string(f[0])).string();
-    try {
-      std::size_t used = 0;
-      const std::string t(f[1]);
-      frame.t_ns = std::stoll(t, &used);
-      if (used != t.size()) throw std::invalid_argument("t_ns");
-    } catch (const std::exception&) {
-      throw ips::InputError(at + ": t_ns: expected a whole number of nanoseconds, got '" + std::string(f[1]) + "'");
-    }
-    if (!out.empty() && frame.t_ns <= out.back().t_ns) {
-      throw ips::InputError(at + ": t_ns: not after the previous frame's (frames must be in capture order)");
-    }
-    out.push_back(std::move(frame));
-  }
-  if (out.empty()) throw ips::InputError(path.string() + ": no frames");
-  return out;
-}
-
-// The session's detections of one camera, grouped by frame.
-std::vector<FrameInput> read_session(const fs::path& dir, std::string camera) {
-  const ips::survey::Session session = ips::survey::load_session(dir);
-  std::string names;
-  const ips::survey::SessionCamera* cam = nullptr;
-  for (const auto& c : session.cameras) {
-    names += (names.empty() ? "" : ", ") + c.name;
-    if (c.name == camera || (camera.empty() && session.cameras.size() == 1)) cam = &c;
-  }
-  if (cam == nullptr) {
-    throw ips::InputError(dir.string() + ": " +
-                          (camera.empty() ? "several cameras (" + names + "): say which with --camera"
-                                          : "no camera '" + camera + "' (cameras: " + names + ")"));
-  }
-  std::map<std::int64_t, FrameInput> frames;
-  for (const auto& d : cam->detections) {
-    FrameInput& f = frames[d.t_ns];
-    f.t_ns = d.t_ns;
-    f.markers.push_back({d.id, d.corners});
-  }
-  std::vector<FrameInput> out;
-  for (auto& [t, f] : frames) out.push_back(std::move(f));
-  if (out.empty()) throw ips::InputError(dir.string() + ": camera '" + cam->name + "' recorded no detection");
-  return out;
-}
-
 int run(const Args& a) {
   const ips::CeilingMap map = ips::CeilingMap::load(a.map);
   ips::RobotCameraConfig config = ips::load_robot_config(a.config);
   config.detection.dictionary = map.dictionary;
   const ips::CameraModel camera = ips::CameraModel::load(config.intrinsics);
   const bool from_images = !a.images.empty();
-  const std::vector<FrameInput> frames = from_images ? read_times(a.images) : read_session(a.session, a.camera);
+  const std::vector<ips::cli::FrameInput> frames =
+      from_images ? ips::cli::read_times_csv(a.images) : ips::cli::read_session_frames(a.session, a.camera);
   ips::Detector detector(config.detection);
 
   std::string csv = "t_ns,x,y,z,yaw,sx,sy,syaw,markers\n";
@@ -112,17 +44,8 @@ int run(const Args& a) {
   std::set<int> unknown, rejected;
   std::map<std::string, long> why;
   for (std::size_t k = 0; k < frames.size(); ++k) {
-    const FrameInput& f = frames[k];
-    std::vector<ips::MarkerDetection> found = f.markers;
-    if (from_images) {
-      const cv::Mat gray = ips::cli::read_gray_image(f.file);
-      if (gray.size() != camera.size()) {
-        throw ips::InputError(f.file + ": " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                              " but the intrinsics " + config.intrinsics.string() + " are for " +
-                              std::to_string(camera.size().width) + "x" + std::to_string(camera.size().height));
-      }
-      found = detector.detect(gray, &camera);
-    }
+    const ips::cli::FrameInput& f = frames[k];
+    const auto found = ips::cli::detections_of(f, detector, camera, config.intrinsics.string());
     const ips::Localisation l = ips::localise(found, camera, map, config.mount, config.localise);
     unknown.insert(l.unknown.begin(), l.unknown.end());
     rejected.insert(l.rejected.begin(), l.rejected.end());

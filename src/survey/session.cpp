@@ -149,7 +149,7 @@ Session load_session(const std::filesystem::path& dir) {
   return s;
 }
 
-std::vector<Reference> load_references(const std::filesystem::path& path) {
+std::vector<Reference> load_references(const std::filesystem::path& path, std::size_t min_references) {
   YAML::Node root;
   try {
     root = YAML::LoadFile(path.string());
@@ -168,27 +168,29 @@ std::vector<Reference> load_references(const std::filesystem::path& path) {
         path.string() + ":" + std::to_string(n.Mark().line + 1) + ": references[" + std::to_string(i) + "]";
     if (!n.IsMap()) throw InputError(at + ": expected {id: N, x: X, y: Y, z: Z}");
     for (const auto& kv : n) {
-      if (!kv.first.IsScalar()) throw InputError(at + ": a key must be a plain word (id, x, y, z)");
+      if (!kv.first.IsScalar()) throw InputError(at + ": a key must be a plain word (id, x, y, z, yaw_deg)");
       const auto key = kv.first.as<std::string>();
-      if (key != "id" && key != "x" && key != "y" && key != "z")
-        throw InputError(at + ": unknown key '" + key + "' (id, x, y, z)");
+      if (key != "id" && key != "x" && key != "y" && key != "z" && key != "yaw_deg")
+        throw InputError(at + ": unknown key '" + key + "' (id, x, y, z, yaw_deg)");
     }
     Reference r;
     try {
       if (!n["id"] || !n["x"] || !n["y"]) throw InputError(at + ": id, x and y are required");
       r.id = n["id"].as<int>();
       r.position = {n["x"].as<double>(), n["y"].as<double>(), n["z"] ? n["z"].as<double>() : 0.0};
+      if (n["yaw_deg"]) r.yaw = n["yaw_deg"].as<double>() * M_PI / 180.0;
     } catch (const YAML::Exception&) {
-      throw InputError(at + ": id must be an integer and x, y, z numbers");
+      throw InputError(at + ": id must be an integer and x, y, z, yaw_deg numbers");
     }
-    if (r.id < 0 || !r.position.allFinite()) throw InputError(at + ": id must be >= 0 and x, y, z finite");
+    if (r.id < 0 || !r.position.allFinite() || (r.yaw && !std::isfinite(*r.yaw)))
+      throw InputError(at + ": id must be >= 0 and x, y, z, yaw_deg finite");
     for (const auto& o : refs)
       if (o.id == r.id) throw InputError(at + ": marker " + std::to_string(r.id) + " is listed twice");
     refs.push_back(r);
   }
-  if (refs.size() < 3)
-    throw InputError(path.string() + ": " + std::to_string(refs.size()) +
-                     " reference(s); at least 3 floor markers at known positions are needed");
+  if (refs.size() < min_references)
+    throw InputError(path.string() + ": " + std::to_string(refs.size()) + " reference(s); at least " +
+                     std::to_string(min_references) + " markers at known positions are needed");
   return refs;
 }
 

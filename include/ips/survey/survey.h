@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -97,11 +98,15 @@ std::vector<Instant> group_instants(const std::vector<StillPeriod>& periods, dou
 struct Reference {
   int id = -1;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  /// The heading of the marker's printed x axis, rad (`yaw_deg` in the file): `ips map` uses
+  /// it (docs/inside-out.md); `ips survey` does not.
+  std::optional<double> yaw;
 };
 
-/// Reads refs.yaml: `references: [{id: 7, x: 0.5, y: 0.4, z: 0.0}, ...]` (z optional, 0).
-/// Throws ips::InputError naming the file, line and key.
-std::vector<Reference> load_references(const std::filesystem::path& path);
+/// Reads refs.yaml: `references: [{id: 7, x: 0.5, y: 0.4, z: 0.0, yaw_deg: 90}, ...]` (z
+/// optional, 0; yaw_deg optional). Throws ips::InputError naming the file, line and key, also
+/// for fewer than `min_references` references (`ips survey` needs 3).
+std::vector<Reference> load_references(const std::filesystem::path& path, std::size_t min_references = 3);
 
 struct SurveyCamera {
   std::string name;   ///< config name
