@@ -143,37 +143,14 @@ double refine(CameraPose& p, const std::vector<Corner>& corners, const CameraMod
   return current;
 }
 
-// IPPE's two camera poses from one marker (undistorted corners); none if a corner has no ray.
+// IPPE's two camera poses from one marker; none if a corner has no ray.
 std::vector<CameraPose> ippe_candidates(const CeilingMarker& m, const MarkerDetection& d, const CameraModel& camera) {
-  std::vector<cv::Point2d> image;
-  for (const auto& c : d.corners_px) {
-    const Point2 n = camera.undistort(c);
-    if (!std::isfinite(n.x) || !std::isfinite(n.y)) return {};
-    image.emplace_back(n.x, n.y);
-  }
-  const double h = m.length / 2;
-  // Marker frame as OpenCV's IPPE_SQUARE wants it: x right, y up as printed, z out of the face.
-  const std::vector<cv::Point3d> object{{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
-  std::vector<cv::Mat> rvecs, tvecs;
-  try {
-    cv::solvePnPGeneric(object, image, cv::Matx33d::eye(), cv::noArray(), rvecs, tvecs, false,
-                        cv::SOLVEPNP_IPPE_SQUARE);
-  } catch (const cv::Exception&) {
-    return {};  // degenerate corners (a sliver of a marker)
-  }
   std::vector<CameraPose> out;
   const Eigen::Matrix3d A = m.axes();  // marker axes in the world
-  for (std::size_t i = 0; i < rvecs.size(); ++i) {
-    cv::Matx33d Rcv;
-    cv::Rodrigues(rvecs[i], Rcv);
-    Eigen::Matrix3d R_cm;  // marker -> camera
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) R_cm(r, c) = Rcv(r, c);
-    const cv::Vec3d tv(tvecs[i]);
-    const Eigen::Vector3d t_cm(tv[0], tv[1], tv[2]);
+  for (const MarkerInCamera& v : marker_in_camera(d, m.length, camera)) {
     CameraPose p;
-    p.R = A * R_cm.transpose();   // camera axes in the world
-    p.c = m.centre - p.R * t_cm;  // the marker centre is at t_cm in the camera
+    p.R = A * v.R.transpose();        // camera axes in the world
+    p.c = m.centre - p.R * v.centre;  // the marker centre is at v.centre in the camera
     if (p.R.allFinite() && p.c.allFinite()) out.push_back(p);
   }
   return out;
@@ -212,6 +189,37 @@ Eigen::Vector4d robot_state(const CameraPose& p, const CameraMount& mount, Eigen
 
 }  // namespace ceiling_pose
 }  // namespace
+
+std::vector<MarkerInCamera> marker_in_camera(const MarkerDetection& d, double length, const CameraModel& camera) {
+  std::vector<cv::Point2d> image;
+  for (const auto& c : d.corners_px) {
+    const Point2 n = camera.undistort(c);
+    if (!std::isfinite(n.x) || !std::isfinite(n.y)) return {};
+    image.emplace_back(n.x, n.y);
+  }
+  const double h = length / 2;
+  // The marker frame as OpenCV's IPPE_SQUARE wants it: x right, y up as printed, z out of the face.
+  const std::vector<cv::Point3d> object{{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+  std::vector<cv::Mat> rvecs, tvecs;
+  try {
+    cv::solvePnPGeneric(object, image, cv::Matx33d::eye(), cv::noArray(), rvecs, tvecs, false,
+                        cv::SOLVEPNP_IPPE_SQUARE);
+  } catch (const cv::Exception&) {
+    return {};  // degenerate corners (a sliver of a marker)
+  }
+  std::vector<MarkerInCamera> out;
+  for (std::size_t i = 0; i < rvecs.size(); ++i) {
+    cv::Matx33d Rcv;
+    cv::Rodrigues(rvecs[i], Rcv);
+    MarkerInCamera v;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) v.R(r, c) = Rcv(r, c);
+    const cv::Vec3d t(tvecs[i]);
+    v.centre = {t[0], t[1], t[2]};
+    if (v.R.allFinite() && v.centre.allFinite()) out.push_back(v);
+  }
+  return out;
+}
 
 Eigen::Matrix3d CameraMount::camera_axes() const {
   return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *

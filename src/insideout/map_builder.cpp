@@ -8,7 +8,6 @@
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <Eigen/Geometry>
-#include <opencv2/calib3d.hpp>
 
 #include "ips/core/error.h"
 #include "ips/insideout/localise.h"
@@ -73,32 +72,11 @@ Eigen::Matrix3d camera_axes(const CameraParams& p) {
 // most nearly down (the ceiling), turned exactly face down.
 std::optional<MarkerParams> place_marker(const MarkerDetection& d, double length, const CameraModel& camera,
                                          const Eigen::Matrix3d& R_wc, const Eigen::Vector3d& centre) {
-  std::vector<cv::Point2d> image;
-  for (const auto& c : d.corners_px) {
-    const Point2 n = camera.undistort(c);
-    if (!std::isfinite(n.x) || !std::isfinite(n.y)) return std::nullopt;
-    image.emplace_back(n.x, n.y);
-  }
-  const double h = length / 2;
-  const std::vector<cv::Point3d> object{{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
-  std::vector<cv::Mat> rvecs, tvecs;
-  try {
-    cv::solvePnPGeneric(object, image, cv::Matx33d::eye(), cv::noArray(), rvecs, tvecs, false,
-                        cv::SOLVEPNP_IPPE_SQUARE);
-  } catch (const cv::Exception&) {
-    return std::nullopt;
-  }
   std::optional<MarkerParams> best;
   double best_down = -2;
-  for (std::size_t i = 0; i < rvecs.size(); ++i) {
-    cv::Matx33d Rcv;
-    cv::Rodrigues(rvecs[i], Rcv);
-    Eigen::Matrix3d R_cm;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) R_cm(r, c) = Rcv(r, c);
-    const cv::Vec3d t(tvecs[i]);
-    const Eigen::Matrix3d R_wm = R_wc * R_cm;
-    const Eigen::Vector3d p = centre + R_wc * Eigen::Vector3d(t[0], t[1], t[2]);
+  for (const MarkerInCamera& v : marker_in_camera(d, length, camera)) {
+    const Eigen::Matrix3d R_wm = R_wc * v.R;
+    const Eigen::Vector3d p = centre + R_wc * v.centre;
     const double down = -R_wm(2, 2);
     if (down > best_down && p.allFinite()) {
       best_down = down;

@@ -66,6 +66,17 @@ struct Localisation {
   std::string why;            ///< when !ok: why not (no known marker, no consistent solution)
 };
 
+/// One of IPPE's two poses of a square marker in the camera (OpenCV's SOLVEPNP_IPPE_SQUARE on
+/// the undistorted corners): the marker's axes (x right, y up as printed, z out of the printed
+/// face) and its centre, in the camera frame.
+struct MarkerInCamera {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+};
+/// Both candidates (none when a corner has no ray or the corners are degenerate).
+std::vector<MarkerInCamera> marker_in_camera(const MarkerDetection& detection, double length,
+                                             const CameraModel& camera);
+
 /// The robot's pose from one frame's detections. Never throws on bad detections: a marker
 /// that cannot be used is listed and left out.
 Localisation localise(std::span<const MarkerDetection> detections, const CameraModel& camera, const CeilingMap& map,
