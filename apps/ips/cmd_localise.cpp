@@ -36,7 +36,7 @@ int run(const Args& a) {
   const ips::CameraModel camera = ips::CameraModel::load(config.intrinsics);
   const bool from_images = !a.images.empty();
   const std::vector<ips::cli::FrameInput> frames =
-      from_images ? ips::cli::read_times_csv(a.images) : ips::cli::read_session_frames(a.session, a.camera);
+      from_images ? ips::cli::read_times_csv(a.images) : ips::cli::read_session_frames(a.session, a.camera, camera);
   ips::Detector detector(config.detection);
 
   std::string csv = "t_ns,x,y,z,yaw,sx,sy,syaw,markers\n";

@@ -91,7 +91,7 @@ int run(const Args& a) {
   std::string dictionary = a.dictionary;
   const bool from_images = !a.images.empty();
   const auto inputs = from_images ? ips::cli::read_times_csv(a.images)
-                                  : ips::cli::read_session_frames(a.session, a.camera, &dictionary);
+                                  : ips::cli::read_session_frames(a.session, a.camera, camera, &dictionary);
   config.detection.dictionary = dictionary;
   ips::Detector detector(config.detection);
   std::vector<ips::DriveFrame> frames;

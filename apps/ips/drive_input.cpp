@@ -47,7 +47,8 @@ std::vector<FrameInput> read_times_csv(const fs::path& dir) {
   return out;
 }
 
-std::vector<FrameInput> read_session_frames(const fs::path& dir, const std::string& camera, std::string* dictionary) {
+std::vector<FrameInput> read_session_frames(const fs::path& dir, const std::string& camera, const CameraModel& lens,
+                                            std::string* dictionary) {
   const survey::Session session = survey::load_session(dir);
   if (dictionary != nullptr) *dictionary = session.dictionary;
   std::string names;
@@ -60,6 +61,14 @@ std::vector<FrameInput> read_session_frames(const fs::path& dir, const std::stri
     throw InputError(dir.string() + ": " +
                      (camera.empty() ? "several cameras (" + names + "): say which with --camera"
                                      : "no camera '" + camera + "' (cameras: " + names + ")"));
+  }
+  if (session.cameras.size() == 1) {
+    const std::string expected = survey::camera_fingerprint({{cam->name, lens}});
+    if (session.fingerprint != expected) {
+      throw InputError((dir / "session.txt").string() + ": fingerprint " + session.fingerprint + " is not camera '" +
+                       cam->name + "' with the intrinsics of the robot's configuration (" + expected +
+                       "): recorded with another calibration?");
+    }
   }
   std::map<std::int64_t, FrameInput> frames;
   for (const auto& d : cam->detections) {

@@ -24,9 +24,12 @@ struct FrameInput {
 std::vector<FrameInput> read_times_csv(const std::filesystem::path& dir);
 
 /// The session's detections of one camera (`camera` may be empty when it has only one),
-/// grouped by frame; `dictionary` receives the session's.
+/// grouped by frame; `dictionary` receives the session's. A session of that camera alone must
+/// carry the fingerprint of its name and `lens` (docs/survey.md), or it was recorded with
+/// another calibration: ips::InputError. A session of several cameras is not checked (its
+/// fingerprint covers the other lenses too).
 std::vector<FrameInput> read_session_frames(const std::filesystem::path& dir, const std::string& camera,
-                                            std::string* dictionary = nullptr);
+                                            const CameraModel& lens, std::string* dictionary = nullptr);
 
 /// A frame's detections: as recorded, or detected in its image (whose size must be the lens').
 std::vector<MarkerDetection> detections_of(const FrameInput& frame, Detector& detector, const CameraModel& camera,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include <Eigen/Cholesky>
@@ -298,7 +299,9 @@ Localisation localise(std::span<const MarkerDetection> detections, const CameraM
     if (markers.size() == 1) {
       out.rejected.push_back(markers[0]->id);
       out.used.clear();
-      out.why = "the only marker's corners fit no pose within " + std::to_string(options.outlier_px) + " px";
+      char why[96];
+      std::snprintf(why, sizeof why, "the only marker's corners fit no pose within %.1f px", options.outlier_px);
+      out.why = why;
       return out;
     }
     out.rejected.push_back(markers[worst]->id);

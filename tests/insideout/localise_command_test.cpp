@@ -114,6 +114,16 @@ TEST_F(LocaliseCommand, ARecordedSessionOfTheCameraIsLocalisedToo) {
     EXPECT_LT(std::hypot(p.x - q.x, p.y - q.y), 1e-4) << "t_ns " << t;  // exact corners
     EXPECT_LT(std::abs(std::remainder(p.yaw - q.yaw, 2 * M_PI)), 1e-4);
   }
+  // The same session recorded with another calibration (another fingerprint): refused.
+  session.fingerprint = "0123456789abcdef";
+  std::ofstream(dir_ / "session/session.txt") << survey::session_header(session);
+  fs::remove(dir_ / "poses.csv");
+  const auto other = test::run_program(
+      "ips", "localise --map " + (dir_ / "drive/map.json").string() + " --config " + (dir_ / "robot.yaml").string() +
+                 " --session " + (dir_ / "session").string() + " --out " + (dir_ / "poses.csv").string());
+  EXPECT_EQ(other.status, 2) << other.out;
+  EXPECT_NE(other.out.find("fingerprint 0123456789abcdef is not camera 'up'"), std::string::npos) << other.out;
+  EXPECT_FALSE(fs::exists(dir_ / "poses.csv"));
 }
 
 TEST_F(LocaliseCommand, BadInputExitsTwoNamingTheFileAndWritesNothing) {
