@@ -62,7 +62,7 @@ CeilingMap CeilingMap::parse(const std::string& text, const std::string& name) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // a syntax error, or a number out of range (1e999)
     throw InputError(name + ": not JSON (" + e.what() + ")");
   }
   if (!j.is_object()) throw InputError(name + ": expected a JSON object");

@@ -73,6 +73,9 @@ void expect_refused(const std::string& text, const std::string& part) {
 TEST(CeilingMap, BadFilesAreRefusedNamingTheEntry) {
   const std::string head = R"({"format": "ips-ceiling-map", "version": 1, "markers": )";
   expect_refused("{", "lab/map.json: not JSON");
+  // A number beyond a double: nlohmann::json's out_of_range, not a parse_error (found by fuzz_ceiling_map).
+  expect_refused(head + R"([{"id": 1, "x": 0, "y": 0, "z": 3, "yaw": -1e3081, "length": 0.2}]})",
+                 "lab/map.json: not JSON");
   expect_refused(R"({"format": "ips-record", "version": 1, "markers": []})", "format");
   expect_refused(R"({"format": "ips-ceiling-map", "version": 2, "markers": []})", "version");
   expect_refused(head + "[]}", "markers: expected a non-empty list");
