@@ -84,7 +84,7 @@ survey::SurveyInput make_input(const Lab& lab, const survey::Session& session) {
   survey::SurveyInput input;
   for (const auto& c : lab.scene.cameras) input.cameras.push_back({c.name, c.name, c.model});
   input.instants = survey::group_instants(survey::find_still_periods(session, {}), 0.1);
-  for (const auto& r : test::lab_references()) input.references.push_back({r.id, {r.x, r.y, 0.0}});
+  for (const auto& r : test::lab_references()) input.references.push_back({r.id, {r.x, r.y, 0.0}, std::nullopt});
   for (const auto& m : lab.scene.markers) input.edge_length[m.id] = m.length;
   return input;
 }
@@ -147,7 +147,8 @@ TEST(SurveySolve, BadInputIsNamed) {
   for (auto& in : input.instants)
     for (auto it = in.views.begin(); it != in.views.end();)
       it = (it->camera == 3 || it->camera == 2) && in.id >= 30 ? in.views.erase(it) : it + 1;
-  input.references = {{20, {1.6, 0.8, 0}}, {21, {3.4, 1.4, 0}}, {22, {2.0, 3.3, 0}}};
+  input.references = {
+      {20, {1.6, 0.8, 0}, std::nullopt}, {21, {3.4, 1.4, 0}, std::nullopt}, {22, {2.0, 3.3, 0}, std::nullopt}};
   try {
     survey::run_survey(input);
     FAIL() << "cameras c and d are connected to nothing, yet the survey ran";
