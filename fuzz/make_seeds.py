@@ -95,6 +95,10 @@ def main():
         "  - {id: 2, position: [6, 0, 2], max_range: 8, dropout: 0.1}\n"
         "nlos_zones:\n  - {min: [4, 3, 0], max: [5, 4, 2.5], bias: 0.5}\n"
         "tags:\n  - {id: 7, marker: 1, height: 0.2, range_tags: true}\n  - {id: 8, marker: 2}\n")
+    # Lamps are read last: a scene of anchors alone (no camera to load) reaches them.
+    put("scene", "lamps.yaml",
+        "anchors:\n  - {id: 1, position: [0, 0, 2.5]}\nlamps:\n  - {x: 1, y: 1, height: 2.8, radius: 0.2}\n"
+        "  - {x: 2, y: 1, height: 2.8, size: [0.6, 0.3], yaw_deg: 20, brightness: 250, glare: 0.4, glare_width: 0.3}\n")
     copy("intrinsics", "calib_data/ou2023/intrinsics_red.yaml", "config/scenes/lenses/pinhole_wide.yaml")
     put("intrinsics", "opencv_fisheye.yaml",
         "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
@@ -179,6 +183,8 @@ def main():
         "yaw_deg: 90}\nlocalise: {pixel_sigma: 0.5, outlier_px: 3, tilt_sigma_deg: 1}\n")
     put("ceiling_map", "one_marker.json",
         '{"format": "ips-ceiling-map", "version": 1, "markers": [{"id": 5, "x": 0, "y": 0, "z": 3, "yaw": 0, "length": 0.2}]}')
+    # A number beyond a double is nlohmann::json's out_of_range, not its parse_error (a crash once).
+    put("ceiling_map", "number_overflow.json", ceiling.replace('"yaw": -2.5', '"yaw": -1e3081'))
     put("det_session", "det_only.txt", "0 3 1 2 3 4 5 6 7 8\n1000 3 1.5 2 3 4 5 6 7 8\n")
     # Small JPEGs of a real photograph in the forms cameras and encoders produce (libturbojpeg
     # through ctypes: no image tool needed).

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "plane_sampling.h"
+#include "sim/lamps.h"
 
 #include "ips/core/error.h"
 #include "ips/detect/detector.h"
@@ -236,6 +237,7 @@ void CameraRenderer::render(double t, cv::Mat& gray, std::uint64_t noise_index) 
   std::vector<SceneCamera> cams;
   for (double ti : times) cams.push_back(scene_.camera_at(camera_index_, ti));
   background_.copyTo(gray);
+  draw_lamps(scene_.lamps, scene_.camera_at(camera_index_, t), *uv_, gain_, gray);
   for (std::size_t i = 0; i < scene_.markers.size(); ++i) {
     PlacedMarker p{scene_.markers[i], {}};
     std::vector<SceneCamera> seen_by;

@@ -173,8 +173,9 @@ Scene Scene::load(const std::filesystem::path& path) {
     throw InputError(file + ":" + std::to_string(e.mark.line + 1) + ": YAML error: " + e.msg);
   }
   const SceneReader r(file);
-  r.only_keys(root, "",
-              {"dictionary", "floor", "render", "cameras", "markers", "bodies", "anchors", "nlos_zones", "tags"});
+  r.only_keys(
+      root, "",
+      {"dictionary", "floor", "render", "cameras", "markers", "lamps", "bodies", "anchors", "nlos_zones", "tags"});
   Scene scene;
   scene.dictionary = r.text(root, "", "dictionary", scene.dictionary);
   try {
@@ -324,6 +325,7 @@ Scene Scene::load(const std::filesystem::path& path) {
   }
   if (const YAML::Node bs = root["bodies"]) read_bodies(r, bs, path.parent_path(), dictionary_size, scene);
   read_ranging(r, root, scene);
+  read_lamps(r, root, scene);
   return scene;
 }
 

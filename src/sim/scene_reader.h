@@ -105,5 +105,7 @@ class SceneReader {
 /// The scene's `anchors:`, `nlos_zones:` and `tags:` (src/sim/scene_ranging.cpp), after its
 /// markers (a tag names the marker that carries it).
 void read_ranging(const SceneReader& r, const YAML::Node& root, Scene& scene);
+/// lamps: (src/sim/lamps.cpp).
+void read_lamps(const SceneReader& r, const YAML::Node& root, Scene& scene);
 
 }  // namespace ips::sim

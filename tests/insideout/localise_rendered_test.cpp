@@ -19,6 +19,7 @@ struct DriveResult {
   int frames = 0, placed = 0;
   double max_error_m = 0, max_yaw_error = 0;
   int visible_80px = 0, used_of_visible_80px = 0, wrong_ids = 0;
+  int saturated_frames = 0;  ///< frames with >= 2000 pixels at 250 or more (a lamp in view)
 };
 
 double shortest_edge_px(const sim::MarkerTruth& t) {
@@ -30,9 +31,10 @@ double shortest_edge_px(const sim::MarkerTruth& t) {
   return e;
 }
 
-DriveResult drive(double exposure_s, int frames, double fps) {
+DriveResult drive(double exposure_s, int frames, double fps, const std::vector<sim::SceneLamp>& lamps = {}) {
   sim::Scene scene = sim::Scene::load(std::string(IPS_CONFIG_DIR) + "/scenes/insideout_lab.yaml");
   scene.render.exposure = exposure_s;
+  scene.lamps = lamps;
   const std::size_t cam = scene.camera_index("up");
   const sim::CameraRenderer renderer(scene, cam);
   const CeilingMap map = sim::ceiling_map(scene);
@@ -47,6 +49,7 @@ DriveResult drive(double exposure_s, int frames, double fps) {
     renderer.render(t, gray, static_cast<std::uint64_t>(k));
     const auto jpeg = sim::encode_jpeg(gray, scene.render.jpeg_quality, true);
     const cv::Mat decoded = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+    r.saturated_frames += cv::countNonZero(decoded >= 250) >= 2000;
     const auto found = detector.detect(decoded, &lens);
     const Localisation l = localise(found, lens, map, CameraMount{});
     ++r.frames;
@@ -101,6 +104,40 @@ TEST(LocaliseRendered, MotionBlurOfAnEightMillisecondExposureCostsMillimetres) {
   EXPECT_LT(r.max_error_m, 0.008);  // measured 4.6 mm over 100 frames (ips sim drive + ips localise)
   EXPECT_LT(r.max_yaw_error, 0.2 * M_PI / 180);
   EXPECT_EQ(r.wrong_ids, 0);
+}
+
+// Lamps between the markers: 15 bright discs and panels with a glow on the ceiling, one of
+// them 0.40 m from marker 8 so that its glow reaches that marker's paper. No lamp is ever read
+// as a marker, and the markers are read and the robot placed as without them.
+TEST(LocaliseRendered, LampsAndTheirGlareAreNeverReadAsMarkers) {
+  std::vector<sim::SceneLamp> lamps;
+  int k = 0;
+  for (double y : {1.6, 3.0, 4.4})
+    for (double x : {1.6, 2.8, 4.0, 5.2, 6.4}) {
+      sim::SceneLamp lamp;
+      lamp.centre = {x, y, 2.8};
+      if (k++ % 2 == 0) {
+        lamp.radius = 0.2;
+      } else {
+        lamp.size_x = 0.6;
+        lamp.size_y = 0.3;
+        lamp.yaw = 0.3 * k;
+      }
+      lamps.push_back(lamp);
+    }
+  sim::SceneLamp near;  // marker 8 is at (3.4, 2.3): the glow spans its near half
+  near.centre = {3.4, 2.7, 2.8};
+  near.radius = 0.1;
+  near.glare = 0.5;
+  near.glare_width = 0.35;
+  lamps.push_back(near);
+  const DriveResult r = drive(0.0, 24, 8.0, lamps);
+  EXPECT_GE(r.saturated_frames, r.frames) << "the lamps are in view in every frame";
+  EXPECT_EQ(r.wrong_ids, 0);
+  EXPECT_EQ(r.placed, r.frames);
+  EXPECT_LT(r.max_error_m, 0.001);
+  ASSERT_GT(r.visible_80px, 60);
+  EXPECT_GE(r.used_of_visible_80px, 0.977 * r.visible_80px) << r.used_of_visible_80px << " of " << r.visible_80px;
 }
 
 }  // namespace

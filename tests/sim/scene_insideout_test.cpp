@@ -84,6 +84,30 @@ TEST(SceneInsideOut, ACeilingMarkerIsSeenFromBelowAsPrinted) {
   EXPECT_GT(area2, 0);
 }
 
+// A lamp is drawn where its disc is: the pixel under its centre saturates, the ceiling beside
+// the glow keeps the plain grey, and a camera looking down never sees it.
+TEST(SceneInsideOut, ALampIsDrawnOnTheCeilingWhereItIs) {
+  const auto scene = ips::sim::Scene::load(write_scene(
+      "lamp.yaml", kScene + "render: {noise_sigma: 0, vignetting: 0}\nlamps:\n  - {x: 6, y: 3, height: 2.8, "
+                            "radius: 0.2, glare: 0.2, glare_width: 0.3}\n"));
+  ASSERT_EQ(scene.lamps.size(), 1u);
+  EXPECT_DOUBLE_EQ(scene.lamps[0].brightness, 255.0);
+  const ips::sim::CameraRenderer renderer(scene, 0);
+  cv::Mat gray;
+  renderer.render(0.0, gray, 0);  // the robot at (6, 3): the lamp is straight above the lens
+  const ips::sim::SceneCamera cam = scene.camera_at(0, 0.0);
+  const auto pixel_of = [&](double x, double y) {
+    const Eigen::Vector3d pc = cam.world_to_camera({x, y, 2.8});
+    const ips::Point2 px = cam.model.project({pc.x() / pc.z(), pc.y() / pc.z()});
+    return gray.at<std::uint8_t>(static_cast<int>(std::lround(px.y)), static_cast<int>(std::lround(px.x)));
+  };
+  EXPECT_EQ(pixel_of(6.0, 3.0), 255);
+  EXPECT_EQ(pixel_of(6.15, 3.0), 255) << "inside the disc";
+  const int rim = pixel_of(6.22, 3.0), far = pixel_of(6.8, 3.0);
+  EXPECT_NEAR(far, 170, 2) << "beyond the glow: the plain ceiling";
+  EXPECT_NEAR(rim, 170 + 0.2 * 255 * (1 - 0.02 / 0.3), 4) << "the glow near the rim";
+}
+
 TEST(SceneInsideOut, MistakesAreNamed) {
   const std::string cam = "cameras:\n  - name: up\n    intrinsics: " + kIntr + "\n";
   struct Case {
@@ -101,6 +125,12 @@ TEST(SceneInsideOut, MistakesAreNamed) {
        cam + "    looking: up\n    position: [0.3]\n    trajectory: {type: placements, control: c.txt, points: [[1, "
              "1]]}\n",
        "not placements"},
+      {"lamp_both.yaml", kScene + "lamps:\n  - {x: 1, y: 1, height: 2.8, radius: 0.2, size: [1, 1]}\n",
+       "lamps[0].radius: a lamp is a disc (radius) or a panel (size), not both"},
+      {"lamp_none.yaml", kScene + "lamps:\n  - {x: 1, y: 1, height: 2.8}\n", "lamps[0].radius: missing"},
+      {"lamp_bright.yaml", kScene + "lamps:\n  - {x: 1, y: 1, height: 2.8, radius: 0.2, brightness: 300}\n",
+       "lamps[0].brightness: must be 0..255"},
+      {"lamp_key.yaml", kScene + "lamps:\n  - {x: 1, y: 1, height: 2.8, radius: 0.2, glow: 1}\n", "lamps[0].glow"},
       {"facing.yaml", cam + "    position: [1, 1, 2]\nmarkers:\n  - {id: 1, x: 1, y: 1, facing: left}\n",
        "markers[0].facing: expected up or down"},
       {"facing_moving.yaml",

@@ -121,6 +121,20 @@ struct RenderSettings {
   unsigned seed = 1;          ///< noise seed
 };
 
+/// A ceiling lamp (docs/simulator.md, "Ceiling lamps"): a bright disc (radius > 0) or
+/// rectangular panel facing down at `centre`, with a glow on the ceiling around it that fades
+/// over `glare_width`; seen by cameras looking up only. A distractor for the detector: never a
+/// marker.
+struct SceneLamp {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< x, y, height, m
+  double radius = 0.0;                               ///< disc, m (0: a panel)
+  double size_x = 0.0, size_y = 0.0;                 ///< panel, m (along its yaw, across)
+  double yaw = 0.0;                                  ///< panel heading, rad
+  double brightness = 255.0;                         ///< grey level of the lamp (saturates the sensor at 255)
+  double glare = 0.4;        ///< the glow's added grey at the lamp's rim, fraction of brightness
+  double glare_width = 0.3;  ///< m over which the glow fades to nothing
+};
+
 /// A ranging anchor of the scene (UWB / ultrasound, docs/simulator.md "Ranges"): every range
 /// to it is the true distance + its bias + Gaussian noise (sigma) + the bias of every NLOS zone
 /// the straight line crosses; beyond max_range, or with probability `dropout`, there is none.
@@ -173,6 +187,7 @@ class Scene {
   RenderSettings render;
   std::vector<SceneCamera> cameras;
   std::vector<SceneMarker> markers;
+  std::vector<SceneLamp> lamps;
   std::vector<SceneBody> bodies;
   std::vector<SceneAnchor> anchors;
   std::vector<NlosZone> nlos_zones;
