@@ -17,6 +17,7 @@
 #include <map>
 #include <numbers>
 #include <optional>
+#include <string_view>
 
 #include "command.h"
 #include "ips/core/clock.h"
@@ -108,6 +109,13 @@ struct BodyView {
   std::deque<std::int64_t> arrivals;
 };
 
+// The sources besides the overhead cameras ("ranges", "inside-out"): "+name" beside cameras,
+// the name alone where no camera placed it.
+void print_other_sources(std::uint16_t sources, std::uint32_t camera_mask) {
+  for (const char* name : ips::wire_source_names(sources))
+    if (std::string_view(name) != "camera") std::printf(camera_mask ? " +%s" : " %s", name);
+}
+
 void print_rate_age(std::deque<std::int64_t>& arrivals, std::int64_t capture_real_ns, std::int64_t now,
                     std::int64_t real) {
   while (!arrivals.empty() && now - arrivals.front() > 1'000'000'000) arrivals.pop_front();
@@ -168,8 +176,9 @@ int run_listen(ListenOptions o) {
       for (auto& [id, v] : markers) {
         std::printf("id %4u  x %8.3f  y %8.3f  z %7.3f m  yaw %7.1f deg  cams 0x%02x", id, v.last.x, v.last.y, v.last.z,
                     v.last.yaw * 180.0 / std::numbers::pi, v.last.camera_mask);
-        // What placed it, where the stream says (IPS_WIRE_FLAG_SOURCES: ipsd with ranging).
-        if (v.last.sources & IPS_WIRE_SOURCE_RANGES) std::printf(v.last.camera_mask ? " +ranges" : " ranges");
+        // What placed it, where the stream says (IPS_WIRE_FLAG_SOURCES: ipsd with ranging or a
+        // camera on a robot).
+        print_other_sources(v.last.sources, v.last.camera_mask);
         if (!v.last.has_yaw) std::printf(" (yaw held)");
         print_rate_age(v.arrivals, v.capture_real_ns, now, real);
         if (v.last.vx != 0 || v.last.vy != 0) std::printf("  v (%.2f, %.2f) m/s", v.last.vx, v.last.vy);
@@ -184,7 +193,7 @@ int run_listen(ListenOptions o) {
         else
           std::printf("      - deg");
         std::printf("  q (%.3f %.3f %.3f %.3f)  cams 0x%02x", b.qw, b.qx, b.qy, b.qz, b.camera_mask);
-        if (b.sources & IPS_WIRE_SOURCE_RANGES) std::printf(b.camera_mask ? " +ranges" : " ranges");
+        print_other_sources(b.sources, b.camera_mask);
         if (held) std::printf(" (yaw held)");
         std::printf("  ids");
         for (const auto id : b.ids) std::printf(" %u", id);

@@ -9,6 +9,8 @@
 #include "ips/core/clock.h"
 #include "ips/detect/detector.h"
 #include "ips/geometry/marker_geometry.h"
+#include "ips/insideout/localise.h"
+#include "ips/insideout/on_robot.h"
 #include "ips/mapping/to_world.h"
 
 namespace ipsd {
@@ -153,7 +155,10 @@ void CameraWorker::process(ips::Frame& frame) {
   batch.t_mono_ns = frame.t_mono_ns;
   batch.t_real_ns = frame.t_real_ns;
   batch.t_delivered_ns = frame.t_delivered_ns;
-  for (const auto& d : detections) observe(*rt, d, frame, batch);
+  if (const auto& map = rt->ceiling_maps[static_cast<std::size_t>(index)])
+    place_robot(*rt, *map, detections, frame, batch);
+  else
+    for (const auto& d : detections) observe(*rt, d, frame, batch);
   stats_.detect_ns += static_cast<std::uint64_t>(ips::monotonic_ns() - t0);
   stats_.markers += batch.observations.size() + batch.bodies.size();
   ++stats_.frames;
@@ -199,6 +204,35 @@ void CameraWorker::observe(const Runtime& rt, const ips::MarkerDetection& d, con
       break;
     case ips::MappedMarker::kDegenerate: break;  // degenerate corners
   }
+}
+
+void CameraWorker::place_robot(const Runtime& rt, const ips::CeilingMap& map,
+                               const std::vector<ips::MarkerDetection>& detections, const ips::Frame& frame,
+                               CameraBatch& batch) {
+  if (detections.empty()) return;  // nothing overhead: fusion's filter and hold cover the gap
+  const int index = config_.index;
+  const ips::OnRobotSettings& settings = rt.config.on_robot.at(index);
+  const ips::Localisation l =
+      ips::localise(detections, rt.intrinsics[static_cast<std::size_t>(index)], map, settings.mount, settings.localise);
+  if (!l.rejected.empty()) {
+    if (stats_.ceiling_outliers == 0) {
+      std::string ids;
+      for (int id : l.rejected) ids += (ids.empty() ? "" : ", ") + std::to_string(id);
+      spdlog::warn(
+          "{}: ceiling marker(s) {} disagree with the others by more than {} px: moved since the map was made? "
+          "Such markers are left out and counted (ceiling_outliers)",
+          config_.name, ids, settings.localise.outlier_px);
+    }
+    stats_.ceiling_outliers += l.rejected.size();
+  }
+  if (!l.ok) {
+    if (stats_.robot_unplaced++ == 0)
+      spdlog::info("{}: a frame with markers gave no robot pose ({}); such frames are counted (robot_unplaced)",
+                   config_.name, l.why);
+    return;
+  }
+  ++stats_.robot_poses;
+  batch.observations.push_back(ips::robot_observation(l, settings, index, frame.t_mono_ns, frame.t_real_ns));
 }
 
 }  // namespace ipsd

@@ -40,6 +40,10 @@ class CameraWorker {
   void run();
   /// One detected marker of `frame` into `batch`: a view of its body, or its world position.
   void observe(const Runtime& rt, const ips::MarkerDetection& d, const ips::Frame& frame, CameraBatch& batch);
+  /// A camera on a robot (cameras[].on_robot): the frame's ceiling markers -> the robot's pose,
+  /// one observation of its marker id (source inside-out, with its covariance).
+  void place_robot(const Runtime& rt, const ips::CeilingMap& map, const std::vector<ips::MarkerDetection>& detections,
+                   const ips::Frame& frame, CameraBatch& batch);
 
   ips::CameraConfig config_;
   ips::SourceSupervisor supervisor_;

@@ -12,7 +12,8 @@
 #include "ips/output/wire.h"
 
 static_assert(ips::source_bit(ips::ObservationSource::kCamera) == IPS_WIRE_SOURCE_CAMERA &&
-                  ips::source_bit(ips::ObservationSource::kRanges) == IPS_WIRE_SOURCE_RANGES,
+                  ips::source_bit(ips::ObservationSource::kRanges) == IPS_WIRE_SOURCE_RANGES &&
+                  ips::source_bit(ips::ObservationSource::kInsideOut) == IPS_WIRE_SOURCE_INSIDE_OUT,
               "the wire's source bits are the fusion's");
 
 namespace ipsd {
@@ -204,7 +205,7 @@ void FusionWorker::publish(const std::vector<ips::FusedMarker>& states, const st
   d.update = update_++;
   d.has_velocity = rt.config.fusion.kalman;
   // Where another source than the cameras can place a marker, every record says what placed it.
-  d.has_sources = rt.config.ranging.enabled();
+  d.has_sources = rt.config.ranging.enabled() || !rt.config.on_robot.empty();
   for (const ips::FusedMarker& f : states) {
     // The one place every output (UDP, ROS 2, MAVLink, subscriptions, web) gets markers from:
     // markers with publish: false (fixed references by default) stop here.

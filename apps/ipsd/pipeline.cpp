@@ -14,14 +14,31 @@ std::shared_ptr<const Runtime> build_runtime(const ips::DaemonConfig& config, co
   auto r = std::make_shared<Runtime>();
   r->config = config;
   try {
-    r->models = std::make_shared<const ips::ModelSet>(ips::load_model_file(config.model_file));
+    // Without overhead cameras (every camera on a robot) there may be no model file.
+    r->models = std::make_shared<const ips::ModelSet>(
+        config.model_file.empty() ? ips::ModelSet{} : ips::load_model_file(config.model_file));
   } catch (const ips::InputError& e) {
     throw ips::InputError(config.file.string() + ": model_file: " + e.what());
   }
   ips::check_models(config, *r->models);
   for (const auto& cam : config.cameras) {
     r->intrinsics.push_back(ips::load_intrinsics(cam));
-    r->mappers.push_back(r->models->find(cam.model));
+    const auto riding = config.on_robot.find(cam.index);
+    r->mappers.push_back(riding == config.on_robot.end() ? r->models->find(cam.model) : nullptr);
+    std::shared_ptr<const ips::CeilingMap> map;
+    if (riding != config.on_robot.end()) {
+      try {
+        map = std::make_shared<const ips::CeilingMap>(ips::CeilingMap::load(riding->second.map));
+      } catch (const ips::InputError& e) {
+        throw ips::InputError(config.file.string() + ": cameras[" + std::to_string(cam.index) +
+                              "].on_robot.map: " + e.what());
+      }
+      if (!map->dictionary.empty() && map->dictionary != config.markers.dictionary)
+        throw ips::InputError(config.file.string() + ": cameras[" + std::to_string(cam.index) +
+                              "].on_robot.map: " + riding->second.map.string() + " was made with " + map->dictionary +
+                              ", but markers.dictionary is " + config.markers.dictionary);
+    }
+    r->ceiling_maps.push_back(std::move(map));
   }
   r->sizes = config.markers.sizes();
   r->fusion = &ips::find_fusion_method(config.fusion.method, config.file.string() + ": fusion.method");

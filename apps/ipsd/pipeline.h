@@ -17,6 +17,7 @@
 #include "ips/config/config.h"
 #include "ips/fusion/fusion.h"
 #include "ips/geometry/camera_model.h"
+#include "ips/insideout/ceiling_map.h"
 #include "ips/mapping/model_file.h"
 #include "ips/output/publisher.h"
 
@@ -35,6 +36,9 @@ struct Runtime {
   /// bodies: the camera threads' marker -> body observation step (const, shared); null
   /// without bodies. The fusion thread fuses the bodies (ips/body/body_track.h).
   std::shared_ptr<const ips::BodyEstimator> bodies;
+  /// By camera index: the ceiling map of a camera that rides on a robot (cameras[].on_robot),
+  /// null for an overhead camera (whose mapper is then in `mappers`).
+  std::vector<std::shared_ptr<const ips::CeilingMap>> ceiling_maps;
 };
 
 /// What a camera thread hands the fusion thread per frame: the plain markers (as
@@ -113,8 +117,13 @@ struct CameraStats {
   std::atomic<std::uint64_t> markers{0};        ///< sum of markers mapped
   std::atomic<std::uint64_t> no_height{0};      ///< markers dropped: the mapper needs a height, none configured
   std::atomic<std::uint64_t> body_rejected{0};  ///< body markers whose view gave no body observation
-  std::atomic<std::int64_t> heartbeat_ns{0};    ///< CLOCK_MONOTONIC of the last loop iteration
-  std::atomic<int> state{0};                    ///< CameraState
+  /// on_robot cameras: frames that placed the robot, and frames with markers that did not
+  /// (no marker of the map, or none consistent); ceiling markers left out as outliers.
+  std::atomic<std::uint64_t> robot_poses{0};
+  std::atomic<std::uint64_t> robot_unplaced{0};
+  std::atomic<std::uint64_t> ceiling_outliers{0};
+  std::atomic<std::int64_t> heartbeat_ns{0};  ///< CLOCK_MONOTONIC of the last loop iteration
+  std::atomic<int> state{0};                  ///< CameraState
   std::mutex error_mutex;
   std::string last_error;
   std::string source;  ///< description of the source

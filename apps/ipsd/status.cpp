@@ -47,6 +47,10 @@ void RateSampler::sample(const std::vector<CameraStats*>& cameras, const std::ve
     r.restart_markers = s.restart_markers;
     r.restart_damaged = s.restart_damaged;
     r.body_rejected = s.body_rejected;
+    r.robot_poses = s.robot_poses;
+    r.robot_unplaced = s.robot_unplaced;
+    r.ceiling_outliers = s.ceiling_outliers;
+    r.on_robot = r.robot_poses + r.robot_unplaced > 0;
     const int state = s.state;
     r.state = state == static_cast<int>(CameraState::kOpen)   ? "open"
               : state == static_cast<int>(CameraState::kDown) ? "down"
@@ -72,6 +76,9 @@ std::vector<std::string> status_lines(const RateSampler& rates, FusionStats& fus
     if (c.restart_damaged) line += fmt::format(", {} with misplaced restart markers", c.restart_damaged);
     if (c.no_height) line += fmt::format(", {} without height", c.no_height);
     if (c.body_rejected) line += fmt::format(", {} body views rejected", c.body_rejected);
+    if (c.on_robot)
+      line += fmt::format(", robot placed {} / unplaced {} frames, {} ceiling outliers", c.robot_poses,
+                          c.robot_unplaced, c.ceiling_outliers);
     if (c.state != "open" && !c.last_error.empty()) line += " (" + c.last_error + ")";
     lines.push_back(line);
   }
@@ -154,6 +161,9 @@ nlohmann::json status_json(const RateSampler& rates, FusionStats& fusion, std::u
                             {"errors", c.failures},
                             {"no_height", c.no_height},
                             {"body_rejected", c.body_rejected},
+                            {"robot_poses", c.robot_poses},
+                            {"robot_unplaced", c.robot_unplaced},
+                            {"ceiling_outliers", c.ceiling_outliers},
                             {"last_error", c.last_error},
                             {"detect_s_total", 1e-9 * static_cast<double>(c.detect_ns_total)},
                             {"queue_s_total", 1e-9 * static_cast<double>(c.queue_ns_total)},

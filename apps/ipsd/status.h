@@ -27,6 +27,10 @@ struct CameraRates {
   std::uint64_t restart_damaged = 0;  ///< frames whose restart markers were misplaced
   std::uint64_t over_budget = 0;      ///< frames dropped unprocessed after waiting a whole budget (in drops)
   std::uint64_t body_rejected = 0;    ///< body markers whose view gave no body observation (docs/bodies.md)
+  /// A camera on a robot (docs/inside-out.md): frames that placed the robot, frames with
+  /// markers that did not, ceiling markers left out as outliers.
+  std::uint64_t robot_poses = 0, robot_unplaced = 0, ceiling_outliers = 0;
+  bool on_robot = false;
   std::uint64_t detect_ns_total = 0, queue_ns_total = 0, markers_total = 0;  ///< since start
   std::uint64_t acquire_ns_total = 0;  ///< searches for new markers after publishing, since start
 };

@@ -15,17 +15,24 @@ std::string web_layout(const Runtime& rt) {
   j["cameras"] = nlohmann::json::array();
   for (const auto& cam : config.cameras) {
     const auto i = static_cast<std::size_t>(cam.index);
-    const ips::Mapper& mapper = *rt.mappers[i];
-    nlohmann::json c{{"name", cam.name}, {"index", cam.index}, {"fps", cam.fps}, {"mapper", mapper.method()}};
-    // The floor the markers lie on: the markers' default height (0 if unknown).
-    const double z = std::isnan(config.markers.height) ? 0.0 : config.markers.height;
-    nlohmann::json footprint = nlohmann::json::array();
-    for (const auto& p : ips::camera_footprint(rt.intrinsics[i], mapper, z)) footprint.push_back({p.x(), p.y()});
-    c["footprint"] = footprint;
-    Eigen::Vector3d origin, dir;
-    c["position"] = mapper.world_ray(Eigen::Vector3d(0, 0, 1), origin, dir)
-                        ? nlohmann::json({origin.x(), origin.y(), origin.z()})
-                        : nlohmann::json(nullptr);
+    nlohmann::json c{{"name", cam.name}, {"index", cam.index}, {"fps", cam.fps}};
+    if (const ips::Mapper* mapper = rt.mappers[i]) {
+      c["mapper"] = mapper->method();
+      // The floor the markers lie on: the markers' default height (0 if unknown).
+      const double z = std::isnan(config.markers.height) ? 0.0 : config.markers.height;
+      nlohmann::json footprint = nlohmann::json::array();
+      for (const auto& p : ips::camera_footprint(rt.intrinsics[i], *mapper, z)) footprint.push_back({p.x(), p.y()});
+      c["footprint"] = footprint;
+      Eigen::Vector3d origin, dir;
+      c["position"] = mapper->world_ray(Eigen::Vector3d(0, 0, 1), origin, dir)
+                          ? nlohmann::json({origin.x(), origin.y(), origin.z()})
+                          : nlohmann::json(nullptr);
+    } else {  // rides on a robot (cameras[].on_robot): it moves with the robot's marker
+      c["mapper"] = "inside-out";
+      c["footprint"] = nlohmann::json::array();
+      c["position"] = nullptr;
+      c["on_robot"] = config.on_robot.at(cam.index).marker;
+    }
     nlohmann::json controls = nlohmann::json::object();
     if (cam.v4l2.controls.auto_exposure) controls["auto_exposure"] = *cam.v4l2.controls.auto_exposure;
     if (cam.v4l2.controls.exposure_s) controls["exposure_s"] = *cam.v4l2.controls.exposure_s;

@@ -72,6 +72,8 @@ CameraConfig parse_camera(const YAML::Node& n, int index, const std::filesystem:
     if (delay > 1.0) r.fail(n["transport_delay"], r.key("transport_delay"), "must be <= 1 second");
     c.transport_delay_s = delay;
   }
+  // cameras[].on_robot belongs to the inside-out stage: the assembly (src/config) reads it.
+  if (r.has("on_robot")) (void)r.node("on_robot");
   r.finish();
   return c;
 }

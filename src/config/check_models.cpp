@@ -16,12 +16,14 @@ void check_models(const DaemonConfig& config, const ModelSet& models) {
   // Without heights, mappers with a camera pose triangulate where >= 2 cameras overlap.
   int ray_cameras = 0;
   for (const auto& cam : config.cameras) {
+    if (config.on_robot.contains(cam.index)) continue;  // maps through the ceiling map
     Eigen::Vector3d o, d;
     const Mapper* mapper = models.find(cam.model);
     if (mapper && mapper->world_ray(Eigen::Vector3d(0, 0, 1), o, d)) ++ray_cameras;
   }
   const bool rays_suffice = ray_cameras >= 2 || (ray_cameras == 1 && config.fusion.single_camera_depth);
   for (const auto& cam : config.cameras) {
+    if (config.on_robot.contains(cam.index)) continue;
     const std::string key = file + ": cameras[" + std::to_string(cam.index) + "].model";
     const Mapper* mapper = models.find(cam.model);
     if (!mapper) {

@@ -19,6 +19,7 @@
 #include "fusion/parse_fusion.h"
 #include "geometry/parse_markers.h"
 #include "input/parse_ranging.h"
+#include "insideout/parse_robot_camera.h"
 #include "ips/core/error.h"
 #include "output/parse_output.h"
 #include "web/parse_web.h"
@@ -50,6 +51,10 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   std::set<std::string> names;
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     c.cameras.push_back(parse_camera(cameras[i], static_cast<int>(i), base, file, checks.intrinsics_exist));
+    if (cameras[i].IsMap() && cameras[i]["on_robot"]) {
+      const std::string key = "cameras[" + std::to_string(i) + "].on_robot";
+      c.on_robot[static_cast<int>(i)] = parse_on_robot(cameras[i]["on_robot"], key, base, file);
+    }
     if (!names.insert(c.cameras.back().name).second)
       r.fail(cameras[i]["name"], "cameras[" + std::to_string(i) + "].name",
              "duplicate camera name '" + c.cameras.back().name + "'");
@@ -64,7 +69,9 @@ DaemonConfig parse_config(const std::string& text, const std::filesystem::path& 
   }
   c.detection.dictionary = c.markers.dictionary;
   if (r.has("bodies")) c.bodies = parse_bodies(r.node("bodies"), c.markers, file);
-  r.get_path("model_file", c.model_file, base, true, checks.model_file_exists);
+  // A daemon whose cameras all ride on robots maps through the ceiling map alone.
+  const bool overhead = c.on_robot.size() < c.cameras.size();
+  r.get_path("model_file", c.model_file, base, overhead, checks.model_file_exists);
 
   if (r.has("fusion")) c.fusion = parse_fusion(r.node("fusion"), file);
 

@@ -8,43 +8,10 @@
 
 #include "core/map_reader.h"
 #include "detect/parse_detection.h"
+#include "insideout/parse_robot_camera.h"
 #include "ips/core/error.h"
 
 namespace ips {
-namespace {
-
-constexpr double kRobotDeg = M_PI / 180.0;
-
-CameraMount parse_camera_mount(const YAML::Node& n, const std::string& file) {
-  config_detail::MapReader r(n, "camera.mount", file);
-  CameraMount m;
-  if (r.has("offset")) {
-    const YAML::Node o = r.node("offset");
-    if (!o.IsSequence() || o.size() != 3) r.fail(o, "camera.mount.offset", "expected [x, y, z] in metres");
-    for (int i = 0; i < 3; ++i) {
-      try {
-        m.offset[i] = o[i].as<double>();
-      } catch (const YAML::Exception&) {
-        r.fail(o[i], "camera.mount.offset", "expected numbers");
-      }
-      if (!std::isfinite(m.offset[i])) r.fail(o[i], "camera.mount.offset", "not a finite number");
-    }
-  }
-  double yaw = 0, roll = 0, pitch = 0;
-  r.get("yaw_deg", yaw);
-  r.get("roll_deg", roll);
-  r.get("pitch_deg", pitch);
-  if (std::abs(roll) > 60 || std::abs(pitch) > 60) {
-    r.fail(n, "camera.mount", "roll_deg and pitch_deg must be within +-60 (the camera looks up)");
-  }
-  m.yaw = yaw * kRobotDeg;
-  m.roll = roll * kRobotDeg;
-  m.pitch = pitch * kRobotDeg;
-  r.finish();
-  return m;
-}
-
-}  // namespace
 
 RobotCameraConfig parse_robot_config(const std::string& yaml_text, const std::filesystem::path& path) {
   const std::string file = path.string();
@@ -61,7 +28,11 @@ RobotCameraConfig parse_robot_config(const std::string& yaml_text, const std::fi
   {
     config_detail::MapReader cam(top.node("camera"), "camera", file);
     cam.get_path("intrinsics", c.intrinsics, path.parent_path(), true);
-    if (cam.has("mount")) c.mount = parse_camera_mount(cam.node("mount"), file);
+    if (cam.has("mount")) {
+      config_detail::MapReader mount(cam.node("mount"), "camera.mount", file);
+      c.mount = config_detail::read_camera_mount(mount);
+      mount.finish();
+    }
     cam.finish();
   }
   if (top.has("detection")) {
@@ -70,11 +41,7 @@ RobotCameraConfig parse_robot_config(const std::string& yaml_text, const std::fi
   }
   if (top.has("localise")) {
     config_detail::MapReader l(top.node("localise"), "localise", file);
-    l.get_number("pixel_sigma", c.localise.pixel_sigma, 0, true);
-    l.get_number("outlier_px", c.localise.outlier_px, 0, true);
-    double tilt_deg = c.localise.tilt_sigma / kRobotDeg;
-    l.get_number("tilt_sigma_deg", tilt_deg, 0, false);
-    c.localise.tilt_sigma = tilt_deg * kRobotDeg;
+    config_detail::read_localise_options(l, c.localise);
     l.finish();
   }
   top.finish();

@@ -19,6 +19,7 @@ const char* wire_source_name(unsigned bit) {
   switch (bit) {
     case 0: return "camera";
     case 1: return "ranges";
+    case 2: return "inside-out";
     default: return nullptr;  // a later source this build does not know
   }
 }

@@ -54,6 +54,11 @@ cameras:
   - {name: replay, model: red, source: file, path: ., loop: false, preload: false, intrinsics: red.yaml}
   - {name: sim, model: red, source: synthetic, scene: scene.yaml, scene_camera: white, phase: 0.01,
      transport_delay: 0.02, intrinsics: red.yaml}
+  - name: robot
+    source: synthetic
+    scene: scene.yaml
+    on_robot: {marker: 3, map: map.json, offset: [0, 0, 0.3], yaw_deg: 0, roll_deg: 0, pitch_deg: 0,
+               pixel_sigma: 0.5, outlier_px: 3, tilt_sigma_deg: 1, map_sigma: 0.01}
 markers:
   dictionary: DICT_4X4_100
   edge_length: 0.15
@@ -142,6 +147,7 @@ ranging:
   std::set<std::string> recorded;
   {
     const AcceptedKeysRecording recording(recorded);
+    std::ofstream(dir_ / "map.json") << "{}";  // on_robot.map must exist (its content is read by ipsd)
     (void)parse_text(text);
     // The older form of min_marker_px, which may not stand beside it.
     (void)parse_text(test::kSyntheticRedConfig + "detection: {min_perimeter_px: 80}\n");
@@ -155,9 +161,9 @@ ranging:
   for (const auto& k : recorded) accepted.insert(documented_form(k));
   // Sanity: the recording saw every section (a parser that stopped noting keys fails here, not
   // as a hundred "undocumented" lines).
-  for (const char* k : {"cameras[].controls.gain", "markers.ids.<id>.fixed", "bodies[].flat[].yaw_deg",
-                        "outputs[].vehicles[].system_id", "fusion.kalman.reset_after", "web.floor",
-                        "ranging.anchors[].bias", "ranging.z_range"})
+  for (const char* k : {"cameras[].controls.gain", "cameras[].on_robot.map_sigma", "markers.ids.<id>.fixed",
+                        "bodies[].flat[].yaw_deg", "outputs[].vehicles[].system_id", "fusion.kalman.reset_after",
+                        "web.floor", "ranging.anchors[].bias", "ranging.z_range"})
     EXPECT_TRUE(accepted.count(k)) << k << " was not recorded";
 
   const auto page = std::filesystem::path(IPS_SOURCE_DIR) / "docs" / "configuration.md";

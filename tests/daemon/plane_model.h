@@ -35,11 +35,13 @@ inline std::unique_ptr<Mapper> fit_plane_on_exact_pairs(const sim::CameraRendere
   return mapper;
 }
 
+/// Every overhead camera's (a camera looking up has no floor to fit on).
 inline void write_plane_model(const std::filesystem::path& scene_file, const std::filesystem::path& out) {
   const auto scene_model = sim::Scene::load(scene_file);
   ModelSet models;
   std::mt19937_64 rng(7);
   for (std::size_t c = 0; c < scene_model.cameras.size(); ++c) {
+    if (scene_model.cameras[c].looks_up) continue;  // a robot's camera: it maps through the ceiling map
     CameraModelEntry entry;
     entry.mapper = fit_plane_on_exact_pairs(sim::CameraRenderer(scene_model, c), rng);
     entry.training = {{"n", 30}, {"source", "ipsd_test: exact simulated pairs"}};

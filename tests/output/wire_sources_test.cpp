@@ -107,6 +107,28 @@ TEST(WireSources, BothEncodingsAndTheCHelpersReadTheSources) {
   }
 }
 
+// A robot's own camera (docs/inside-out.md) is bit 2, "inside-out" in JSON; with an overhead
+// camera's bit where both placed the robot.
+TEST(WireSources, TheRobotsOwnCameraIsBit2AndNamedInsideOut) {
+  Datagram d = two_sources(true);
+  d.markers[0].sources = IPS_WIRE_SOURCE_CAMERA | IPS_WIRE_SOURCE_INSIDE_OUT;
+  d.markers[1].sources = IPS_WIRE_SOURCE_INSIDE_OUT;
+  d.markers[1].has_yaw = true;  // the robot's camera measures the heading
+  const auto bytes = encode_binary(d);
+  EXPECT_EQ(u16_at(bytes, IPS_WIRE_HEADER_SIZE + IPS_WIRE_RECORD_SIZE_SOURCES + 48), 4u);
+  const std::string json = encode_json(d);
+  EXPECT_NE(json.find("\"sources\":[\"camera\",\"inside-out\"],\"has_yaw\":true"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"sources\":[\"inside-out\"],\"has_yaw\":true"), std::string::npos) << json;
+  for (const Datagram& back :
+       {decode_datagram(bytes),
+        decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(json.data()), json.size()))}) {
+    ASSERT_EQ(back.markers.size(), 2u);
+    EXPECT_EQ(back.markers[0].sources, IPS_WIRE_SOURCE_CAMERA | IPS_WIRE_SOURCE_INSIDE_OUT);
+    EXPECT_EQ(back.markers[1].sources, IPS_WIRE_SOURCE_INSIDE_OUT);
+    EXPECT_TRUE(back.markers[1].has_yaw);
+  }
+}
+
 TEST(WireSources, AReceiverWrittenBeforeTheRevisionStillReadsEveryMarker) {
   // What a version-1 receiver does (the layout of the first ipsd): check record_size against
   // the velocity flag only, step by record_size, read the fields it knows.

@@ -1,13 +1,14 @@
 // The daemon's configuration (YAML), assembled from the stages' own settings: each stage owns its
 // settings struct with its defaults (capture/camera_settings.h, geometry/marker_settings.h,
 // detect/detector.h, fusion/fusion_settings.h, output/output_settings.h, web/web_settings.h,
-// body/body.h) and parses its own section (src/<stage>/parse_*.cpp); this file only puts them
+// body/body.h, insideout/on_robot.h) and parses its own section (src/<stage>/parse_*.cpp); this file only puts them
 // together with the daemon's own few keys. docs/configuration.md documents each key. Loading is
 // strict: an unknown key, a wrong type, a value out of range or a missing file throws
 // ips::InputError naming the file, line, column and key ("ipsd.yaml:12:5: cameras[0].fps: ...").
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 #include "ips/fusion/fusion_settings.h"
 #include "ips/geometry/marker_settings.h"
 #include "ips/input/ranging_settings.h"
+#include "ips/insideout/on_robot.h"
 #include "ips/output/output_settings.h"
 #include "ips/web/web_settings.h"
 
@@ -51,7 +53,10 @@ struct DaemonConfig {
   DetectorOptions detection;
   /// detection.tracking / full_search_period / roi_margin: tracking between frames.
   TrackerOptions tracking;
-  std::filesystem::path model_file;  ///< required
+  /// cameras[i].on_robot by camera index: cameras that ride on robots and read the ceiling map
+  /// (ips/insideout/on_robot.h); they need no model in model_file.
+  std::map<int, OnRobotSettings> on_robot;
+  std::filesystem::path model_file;  ///< required unless every camera rides on a robot
   FusionConfig fusion;
   std::vector<OutputConfig> outputs;
   std::string log_level = "info";  ///< trace | debug | info | warn | error

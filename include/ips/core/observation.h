@@ -41,6 +41,8 @@ struct CameraObservation {
 enum class ObservationSource : std::uint8_t {
   kCamera = 0,  ///< a ceiling camera's marker detection
   kRanges = 1,  ///< a fix solved from one firing's ranges (UWB / ultrasound)
+  /// the robot's pose from its own up-facing camera reading the ceiling map (docs/inside-out.md)
+  kInsideOut = 2,
 };
 
 /// Bit of a source in FusedMarker::sources.

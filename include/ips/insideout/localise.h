@@ -35,6 +35,8 @@ struct CameraMount {
 
   /// Columns: the camera's x, y, z (optical) axes in the robot frame.
   Eigen::Matrix3d camera_axes() const;
+
+  bool operator==(const CameraMount&) const = default;
 };
 
 struct LocaliseOptions {
@@ -45,6 +47,8 @@ struct LocaliseOptions {
   /// from a shift); many markers outweigh it. 0 = none (tilt solved from the markers alone).
   double tilt_sigma = 0.017453292519943295;  // 1 degree
   int max_iterations = 30;                   ///< Levenberg-Marquardt iterations
+
+  bool operator==(const LocaliseOptions&) const = default;
 };
 
 struct RobotPose {

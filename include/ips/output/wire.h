@@ -55,12 +55,15 @@
  *    36    4 f32   vx, m/s (constant-velocity Kalman filter)
  *    40    4 f32   vy, m/s
  *    44    4 f32   vz, m/s
- *   with IPS_WIRE_FLAG_SOURCES (ipsd sets it when its configuration has `ranging:`; the record
- *   then always holds the velocity fields, 0 without IPS_WIRE_FLAG_VELOCITY):
+ *   with IPS_WIRE_FLAG_SOURCES (ipsd sets it when its configuration has `ranging:` or a camera
+ *   `on_robot:`; the record then always holds the velocity fields, 0 without
+ *   IPS_WIRE_FLAG_VELOCITY):
  *    48    2 u16   sources: what the position came from, a bit per kind: bit 0 =
  *                  IPS_WIRE_SOURCE_CAMERA (the cameras of camera_mask), bit 1 =
- *                  IPS_WIRE_SOURCE_RANGES (UWB / ultrasound ranges, docs/ranging.md); a record of
- *                  ranges alone has camera_mask 0 and quality 0. Later sources take later bits.
+ *                  IPS_WIRE_SOURCE_RANGES (UWB / ultrasound ranges, docs/ranging.md), bit 2 =
+ *                  IPS_WIRE_SOURCE_INSIDE_OUT (the robot's own up-facing camera reading the
+ *                  ceiling's markers, docs/inside-out.md); a record without the cameras has
+ *                  camera_mask 0 and quality 0. Later sources take later bits.
  *    50    2 u16   marker_flags: bit 0 = IPS_WIRE_MARKER_HAS_YAW (yaw was measured at this
  *                  record's time; 0 = the last measured heading held, e.g. from ranges alone)
  *   Without IPS_WIRE_FLAG_SOURCES every record is from the cameras with a measured yaw
@@ -147,6 +150,7 @@ extern "C" {
 /* Marker record: sources bits and marker_flags bits. */
 #define IPS_WIRE_SOURCE_CAMERA 0x0001u
 #define IPS_WIRE_SOURCE_RANGES 0x0002u
+#define IPS_WIRE_SOURCE_INSIDE_OUT 0x0004u
 #define IPS_WIRE_MARKER_HAS_YAW 0x0001u
 /* Every datagram (binary or JSON) is at most this many bytes, below common path MTUs. */
 #define IPS_WIRE_MAX_DATAGRAM 1199u

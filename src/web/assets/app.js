@@ -202,12 +202,12 @@ function enablePanZoom(svg) {
   svg.addEventListener('dblclick', () => setView(home.slice()));
 }
 
-// Who placed a marker, for people: its cameras' names, plus "ranges" where range fixes took
-// part ("ranges" alone where no camera sees it); "–" for nothing.
+// Who placed a marker, for people: its cameras' names, plus the other sources that took part
+// ("ranges", "inside-out": the robot's own camera), alone where no camera sees it; "–" for nothing.
 function placedBy(cams, sources) {
-  const ranged = sources.includes('ranges');
-  if (!cams.length) return ranged ? 'ranges' : '–';
-  return cams.join(' ') + (ranged ? ' + ranges' : '');
+  const others = sources.filter((s) => s !== 'camera').join(' + ');
+  if (!cams.length) return others || '–';
+  return cams.join(' ') + (others ? ` + ${others}` : '');
 }
 
 function cameraNames(mask) {
@@ -236,7 +236,8 @@ function drawMarkers(msg) {
     g.querySelector('line').setAttribute('transform', `rotate(${yawDeg.toFixed(2)})`);
     const cams = cameraNames(m.cameras);
     const speed = m.vx === null || m.vx === undefined || m.vy === null ? null : Math.hypot(m.vx, m.vy);
-    // What placed it: ranges alone (no camera sees it) draw dashed; the heading is then held.
+    // What placed it: another source alone (no overhead camera sees it) draws dashed; ranges
+    // alone hold the heading.
     const sources = m.sources || ['camera'];
     Object.assign(g.dataset, { x: m.x, y: m.y, z: m.z, yaw: m.yaw, speed: speed === null ? '' : speed, age: m.age,
                                cameras: cams.join(','), sources: sources.join(','),
