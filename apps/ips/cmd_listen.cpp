@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstring>
 #include <deque>
+#include <fstream>
 #include <map>
 #include <numbers>
 #include <optional>
@@ -36,6 +37,7 @@ struct ListenOptions {
   std::string group;               // multicast group:port; replaces --bind
   std::string interface;           // local IPv4 address of the interface to join the group on
   bool json = false;               // print every decoded datagram as one JSON line
+  std::string record;              // also write every valid datagram as one JSON line to this file
   double interval_s = 1.0;         // table refresh period
   long count = 0;                  // stop after this many valid datagrams (0 = never)
   double duration_s = 0;           // stop after this many seconds (0 = never)
@@ -162,6 +164,13 @@ int run_listen(ListenOptions o) {
   const std::int64_t start = ips::monotonic_ns();
   std::int64_t next_print = start + static_cast<std::int64_t>(o.interval_s * 1e9);
   std::vector<std::uint8_t> buf(65536);
+  // --record: what `ips score --stream` reads; binary datagrams are written in their JSON form,
+  // which carries the same fields, so a recording does not depend on the output's format.
+  std::ofstream record;
+  if (!o.record.empty()) {
+    record.open(o.record, std::ios::trunc);
+    if (!record) throw ips::InputError("--record: cannot write " + o.record);
+  }
 
   while (!g_stop) {
     const std::int64_t now = ips::monotonic_ns();
@@ -245,9 +254,14 @@ int run_listen(ListenOptions o) {
     }
     have_seq = true;
     last_seq = d.sequence;
-    if (o.json) {
-      std::fputs(ips::encode_json(d).c_str(), stdout);
-      std::fflush(stdout);
+    if (o.json || record.is_open()) {
+      std::string line = ips::encode_json(d);
+      if (line.empty() || line.back() != '\n') line += '\n';
+      if (o.json) {
+        std::fputs(line.c_str(), stdout);
+        std::fflush(stdout);
+      }
+      if (record.is_open()) record << line << std::flush;
     }
     const std::int64_t arrived = ips::monotonic_ns();
     for (const auto& m : d.markers) {
@@ -280,6 +294,8 @@ IPS_REGISTER_COMMAND(
       sub.add_option("--group", o->group, "multicast GROUP:PORT to join instead of --bind")->excludes(bind);
       sub.add_option("--interface", o->interface, "with --group: IPv4 address of the interface to join on");
       sub.add_flag("--json", o->json, "print every datagram as one JSON line (the stream's JSON form)");
+      sub.add_option("--record", o->record,
+                     "also write every valid datagram to FILE, one JSON line each (for ips score --stream)");
       sub.add_option("--interval", o->interval_s, "seconds between table refreshes")
           ->capture_default_str()
           ->check(CLI::PositiveNumber);

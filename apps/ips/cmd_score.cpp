@@ -1,8 +1,9 @@
 // `ips score`: a trajectory scored against ground truth (a motion-capture export, a surveyed
 // path, the simulator's truth.csv): for every estimate, the truth at its time (linearly
 // interpolated between the two truth rows around it); RMSE in 2-D, 3-D and heading; the
-// detection ratio (the truth instants with an estimate within --timeout); per object id; an
-// optional plot of the 2-D error over time.
+// detection ratio (the truth instants with an estimate within --timeout); per object (a
+// marker id or a body's name); an optional plot of the 2-D error over time. The estimates are
+// a CSV (ips localise's poses.csv) or ipsd's stream as recorded by `ips listen --record`.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -19,12 +20,25 @@
 #include "command.h"
 #include "ips/core/csv_fields.h"
 #include "ips/core/error.h"
+#include "ips/output/packet_codec.h"
 
 namespace cmd_score {  // named, not anonymous: unique in a unity build
 
 struct Args {
-  std::string estimate, truth, plot;
+  std::string estimate, stream, truth, plot;
   double timeout_s = 0.5;
+};
+
+// Objects in the order people expect: marker ids by number, then bodies by name.
+struct ById {
+  static bool numeric(const std::string& s) {
+    return !s.empty() && s.size() < 19 && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+  }
+  bool operator()(const std::string& a, const std::string& b) const {
+    if (numeric(a) != numeric(b)) return numeric(a);
+    if (numeric(a)) return std::stoll(a) < std::stoll(b);
+    return a < b;
+  }
 };
 
 struct Sample {
@@ -32,9 +46,12 @@ struct Sample {
   double x = 0, y = 0, z = NAN, yaw = NAN;
 };
 
+using Tracks = std::map<std::string, std::vector<Sample>, ById>;
+
 // id -> samples in time order. Columns by name: t_ns, x, y required; z, yaw, id optional
-// (no id column: one object, id 0); any other column is ignored.
-std::map<long long, std::vector<Sample>> read_track(const std::string& path) {
+// (no id column: one object, id 0; an id is a marker's number or a body's name); any other
+// column is ignored.
+Tracks read_track(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ips::InputError(path + ": cannot open");
   std::string line;
@@ -52,7 +69,7 @@ std::map<long long, std::vector<Sample>> read_track(const std::string& path) {
     return it == col.end() ? std::nullopt : std::optional<std::size_t>(it->second);
   };
   const auto z = opt("z"), yaw = opt("yaw"), id = opt("id");
-  std::map<long long, std::vector<Sample>> out;
+  Tracks out;
   for (int n = 2; std::getline(in, line); ++n) {
     if (ips::trim_csv_field(line).empty()) continue;
     const auto f = ips::split_csv_line(line);
@@ -77,13 +94,51 @@ std::map<long long, std::vector<Sample>> read_track(const std::string& path) {
     s.y = ips::parse_csv_number(f[col["y"]], at, "column 'y'");
     if (z) s.z = ips::parse_csv_number(f[*z], at, "column 'z'");
     if (yaw) s.yaw = ips::parse_csv_number(f[*yaw], at, "column 'yaw'");
-    auto& track = out[id ? whole(*id, "id") : 0];
+    const std::string object = id ? std::string(ips::trim_csv_field(f[*id])) : "0";
+    if (object.empty()) throw ips::InputError(at + ": column 'id' is empty");
+    auto& track = out[object];
     if (!track.empty() && s.t_ns <= track.back().t_ns) {
       throw ips::InputError(at + ": t_ns not after the previous row's of the same id (rows must be in time order)");
     }
     track.push_back(s);
   }
   if (out.empty()) throw ips::InputError(path + ": no rows");
+  return out;
+}
+
+// ipsd's stream as `ips listen --record` writes it: one datagram per line in the stream's JSON
+// form. Each marker record at its capture time (the datagram's realtime + the record's dt) under
+// its id, each body's under its name; a heading only where the record measured it. A record
+// not after its object's previous one (the same update sent twice) is skipped and counted.
+Tracks read_stream(const std::string& path, long& repeated) {
+  std::ifstream in(path);
+  if (!in) throw ips::InputError(path + ": cannot open");
+  Tracks out;
+  std::string line;
+  auto add = [&](const std::string& object, long long t, Sample s) {
+    auto& track = out[object];
+    s.t_ns = t;
+    if (!track.empty() && t <= track.back().t_ns) {
+      ++repeated;
+      return;
+    }
+    track.push_back(s);
+  };
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (ips::trim_csv_field(line).empty()) continue;
+    ips::Datagram d;
+    try {
+      d = ips::decode_datagram(std::span(reinterpret_cast<const std::uint8_t*>(line.data()), line.size()));
+    } catch (const ips::InputError& e) {
+      throw ips::InputError(path + ":" + std::to_string(n) + ": not a datagram of the stream's JSON form (" + e.what() +
+                            ")");
+    }
+    for (const auto& m : d.markers)
+      add(std::to_string(m.id), d.capture_realtime_ns + 1000LL * m.dt_us, {0, m.x, m.y, m.z, m.has_yaw ? m.yaw : NAN});
+    for (const auto& b : d.bodies)
+      add(b.name, d.capture_realtime_ns + 1000LL * b.dt_us, {0, b.x, b.y, b.z, b.has_yaw ? b.yaw : NAN});
+  }
+  if (out.empty()) throw ips::InputError(path + ": no marker or body records");
   return out;
 }
 
@@ -154,7 +209,7 @@ Score score(const std::vector<Sample>& est, const std::vector<Sample>& truth, lo
   return s;
 }
 
-void write_plot(const std::map<long long, Score>& scores, const std::string& path) {
+void write_plot(const std::map<std::string, Score, ById>& scores, const std::string& path) {
   const int W = 1000, H = 420, left = 70, right = 40, top = 30, bottom = 50;
   cv::Mat img(H, W, CV_8UC3, cv::Scalar(255, 255, 255));
   double t_max = 1e-9, e_max = 1e-9;
@@ -188,8 +243,8 @@ void write_plot(const std::map<long long, Score>& scores, const std::string& pat
     for (const auto& [t, e] : s.series) pts.push_back(px(t, e));
     if (pts.size() > 1) cv::polylines(img, pts, false, c, 1, cv::LINE_AA);
     for (const auto& p : pts) cv::circle(img, p, 2, c, cv::FILLED);
-    cv::putText(img, "id " + std::to_string(id), {W - right - 70, top + 18 * (k + 1)}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
-                c);
+    cv::putText(img, (ById::numeric(id) ? "id " : "") + id, {W - right - 110, top + 18 * (k + 1)},
+                cv::FONT_HERSHEY_SIMPLEX, 0.45, c);
     ++k;
   }
   if (!cv::imwrite(path, img)) throw ips::InputError(path + ": cannot write the plot");
@@ -197,16 +252,20 @@ void write_plot(const std::map<long long, Score>& scores, const std::string& pat
 
 int run(const Args& a) {
   if (!(a.timeout_s > 0)) throw ips::InputError("--timeout must be > 0 s");
-  const auto est = read_track(a.estimate);
+  if (a.estimate.empty() == a.stream.empty()) throw ips::InputError("give one of --estimate CSV or --stream JSONL");
+  long repeated = 0;
+  const auto est = a.stream.empty() ? read_track(a.estimate) : read_stream(a.stream, repeated);
+  if (repeated > 0)
+    std::printf("%s: %ld records not after their object's previous one, skipped\n", a.stream.c_str(), repeated);
   const auto truth = read_track(a.truth);
   const auto timeout_ns = static_cast<long long>(std::llround(a.timeout_s * 1e9));
-  std::map<long long, Score> scores;
+  std::map<std::string, Score, ById> scores;
   for (const auto& [id, t] : truth) {
     const auto e = est.find(id);
     scores[id] = score(e == est.end() ? std::vector<Sample>{} : e->second, t, timeout_ns);
   }
   for (const auto& [id, e] : est) {
-    if (!truth.count(id)) std::printf("id %lld: %zu estimates, no truth: not scored\n", id, e.size());
+    if (!truth.count(id)) std::printf("id %s: %zu estimates, no truth: not scored\n", id.c_str(), e.size());
   }
   std::printf("%6s %9s %9s %10s %12s %12s %12s %12s %12s\n", "id", "estimates", "matched", "detection", "RMSE 2-D",
               "p95 2-D", "max 2-D", "RMSE 3-D", "RMSE yaw");
@@ -223,7 +282,7 @@ int run(const Args& a) {
     char yaw[32] = "-";
     if (s.n_yaw)
       std::snprintf(yaw, sizeof yaw, "%.3f deg", std::sqrt(s.sum_yaw / static_cast<double>(s.n_yaw)) * 180 / M_PI);
-    std::printf("%6lld %9ld %9ld %9.1f%% %12s %12s %12s %12s %12s\n", id, s.estimates, s.matched,
+    std::printf("%6s %9ld %9ld %9.1f%% %12s %12s %12s %12s %12s\n", id.c_str(), s.estimates, s.matched,
                 100.0 * static_cast<double>(s.detected) / static_cast<double>(s.truth_rows), rmse2.c_str(), p95.c_str(),
                 mx.c_str(), rmse3.c_str(), yaw);
   }
@@ -242,9 +301,15 @@ IPS_REGISTER_COMMAND(
     "score", "Score a trajectory against ground truth: RMSE at each estimate's time, detection ratio",
     [](CLI::App& sub) -> std::function<int()> {
       auto a = std::make_shared<Args>();
-      sub.add_option("--estimate", a->estimate, "CSV with t_ns,x,y[,z][,yaw][,id] (e.g. ips localise's poses.csv)")
+      auto* estimate =
+          sub.add_option("--estimate", a->estimate, "CSV with t_ns,x,y[,z][,yaw][,id] (e.g. ips localise's poses.csv)");
+      sub.add_option("--stream", a->stream,
+                     "ipsd's stream recorded by `ips listen --record FILE` (JSON lines; capture times on the "
+                     "realtime clock)")
+          ->excludes(estimate);
+      sub.add_option("--truth", a->truth,
+                     "CSV with t_ns,x,y[,z][,yaw][,id], the same clock (id: a marker's number or a body's name)")
           ->required();
-      sub.add_option("--truth", a->truth, "CSV with t_ns,x,y[,z][,yaw][,id], the same clock")->required();
       sub.add_option("--timeout", a->timeout_s, "An estimate this close (s) to a truth instant detects it")
           ->capture_default_str();
       sub.add_option("--plot", a->plot, "Write a PNG of the 2-D error over time");
