@@ -2,6 +2,7 @@
 // frames with times.csv, or an `ips record` session), put in the lab's frame by references
 // (docs/inside-out.md). Writes map.json and, on request, a report PNG (the map from below, the
 // drive, the references); bad input exits 2 and writes nothing.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -70,6 +71,17 @@ void write_report(const ips::MapBuildResult& r, const std::vector<ips::MapRefere
   for (const auto& ref : refs) {
     cv::circle(img, px(ref.position.x(), ref.position.y()), 18, cv::Scalar(0, 160, 0), 2, cv::LINE_AA);
   }
+  // Each marker's 1-sigma ellipse (x, y; axis-aligned), magnified so that the largest is 30 px.
+  double largest = 0;
+  for (const auto& m : r.map.markers)
+    if (m.sigma) largest = std::max({largest, (*m.sigma)[0], (*m.sigma)[1]});
+  const double magnify = largest > 0 ? 30.0 / (largest * s) : 0.0;
+  for (const auto& m : r.map.markers) {
+    if (!m.sigma || magnify == 0) continue;
+    const cv::Size axes(std::max(1, static_cast<int>(std::lround((*m.sigma)[0] * s * magnify))),
+                        std::max(1, static_cast<int>(std::lround((*m.sigma)[1] * s * magnify))));
+    cv::ellipse(img, px(m.centre.x(), m.centre.y()), axes, 0, 0, 360, cv::Scalar(160, 0, 160), 1, cv::LINE_AA);
+  }
   char title[200];
   std::snprintf(title, sizeof title, "%zu markers from %d of %d frames, %d corners, RMS %.2f px; green: references",
                 r.map.markers.size(), r.frames_used, r.frames, r.corners, r.rms_px);
@@ -77,6 +89,13 @@ void write_report(const ips::MapBuildResult& r, const std::vector<ips::MapRefere
   cv::putText(img,
               "a floor plan (seen from above, x right, y up); red: each marker's printed top edge; blue: the drive",
               {10, 40}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {80, 80, 80}, 1, cv::LINE_AA);
+  if (magnify > 0) {
+    char sigmas[200];
+    std::snprintf(sigmas, sizeof sigmas,
+                  "purple: 1-sigma ellipses relative to marker %d, magnified %.0fx (largest %.2f mm)", r.anchor,
+                  magnify, largest * 1000);
+    cv::putText(img, sigmas, {10, 58}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {160, 0, 160}, 1, cv::LINE_AA);
+  }
   std::vector<std::uint8_t> png;
   if (!cv::imencode(".png", img, png)) throw std::runtime_error("cannot encode the report");
   ips::cli::write_file_atomically(path, std::string(png.begin(), png.end()));
@@ -115,6 +134,16 @@ int run(const Args& a) {
   ips::cli::write_file_atomically(a.out, r.map.to_json());
   std::printf("%zu markers from %d of %d frames (%d corners, RMS %.2f px); wrote %s\n", r.map.markers.size(),
               r.frames_used, r.frames, r.corners, r.rms_px, a.out.c_str());
+  double worst = 0;
+  int worst_id = -1;
+  for (const auto& m : r.map.markers)
+    if (m.sigma && std::hypot((*m.sigma)[0], (*m.sigma)[1]) > worst) {
+      worst = std::hypot((*m.sigma)[0], (*m.sigma)[1]);
+      worst_id = m.id;
+    }
+  if (worst_id >= 0)
+    std::printf("  uncertainty relative to marker %d (held): largest 1-sigma %.2f mm (2-D), marker %d\n", r.anchor,
+                worst * 1000, worst_id);
   for (const auto& ref : r.references) {
     std::printf("  reference %d: mapped %+.1f %+.1f %+.1f mm from its given centre", ref.id, ref.offset.x() * 1000,
                 ref.offset.y() * 1000, ref.offset.z() * 1000);

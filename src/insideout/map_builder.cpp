@@ -100,6 +100,39 @@ CeilingMap as_map(const std::map<int, MarkerParams>& markers, const MapBuildOpti
   return map;
 }
 
+// Each adjusted marker's covariance (x, y, z, yaw) relative to the held one, in the adjustment's
+// frame: Ceres' covariance of the parameter blocks (the cameras marginalised), scaled by the
+// corner noise the residuals show (their sum of squares over the degrees of freedom). The held
+// marker's is zero. Empty when the adjustment leaves some direction free (rank deficient).
+std::map<int, Eigen::Matrix4d> marker_covariances(ceres::Problem& problem, std::map<int, MarkerParams>& markers,
+                                                  double sum_squares, std::size_t residuals) {
+  std::map<int, Eigen::Matrix4d> out;
+  std::vector<std::pair<const double*, const double*>> blocks;
+  int held = 0;
+  for (auto& [id, p] : markers) {
+    if (!problem.HasParameterBlock(p.data())) continue;
+    if (problem.IsParameterBlockConstant(p.data()))
+      held += 4;
+    else
+      blocks.emplace_back(p.data(), p.data());
+  }
+  const double dof = static_cast<double>(residuals) - (problem.NumParameters() - held);
+  if (blocks.empty() || dof <= 0) return out;
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = 2;
+  ceres::Covariance covariance(co);
+  if (!covariance.Compute(blocks, &problem)) return out;
+  const double variance = sum_squares / dof;
+  for (auto& [id, p] : markers) {
+    if (!problem.HasParameterBlock(p.data())) continue;
+    Eigen::Matrix<double, 4, 4, Eigen::RowMajor> c = Eigen::Matrix4d::Zero();
+    if (!problem.IsParameterBlockConstant(p.data())) covariance.GetCovarianceBlock(p.data(), p.data(), c.data());
+    out[id] = variance * c;
+  }
+  return out;
+}
+
 }  // namespace ceiling_mapping
 }  // namespace
 
@@ -182,6 +215,8 @@ MapBuildResult build_ceiling_map(const std::vector<DriveFrame>& frames, const Ca
   double sum = 0;
   for (double r : residuals) sum += r * r;
   out.rms_px = out.corners > 0 ? std::sqrt(sum / out.corners) : 0.0;
+  const std::map<int, Eigen::Matrix4d> covariances = marker_covariances(problem, markers, sum, residuals.size());
+  out.anchor = markers.begin()->first;
 
   // (3) Onto the references: a turn about the vertical and a shift.
   std::vector<std::pair<const MapReference*, const MarkerParams*>> pairs;
@@ -235,6 +270,15 @@ MapBuildResult build_ceiling_map(const std::vector<DriveFrame>& frames, const Ca
     p = {c.x(), c.y(), c.z(), p[3] + theta};
   }
   out.map = as_map(markers, options);
+  // The uncertainties turned with the map (x, y); z and the heading are unchanged by a turn.
+  const Eigen::Matrix2d R2 = Rz.topLeftCorner<2, 2>();
+  for (CeilingMarker& m : out.map.markers) {
+    const auto it = covariances.find(m.id);
+    if (it == covariances.end()) continue;
+    const Eigen::Matrix2d xy = R2 * it->second.topLeftCorner<2, 2>() * R2.transpose();
+    m.sigma = Eigen::Vector4d(std::sqrt(std::max(0.0, xy(0, 0))), std::sqrt(std::max(0.0, xy(1, 1))),
+                              std::sqrt(std::max(0.0, it->second(2, 2))), std::sqrt(std::max(0.0, it->second(3, 3))));
+  }
   for (const auto& [r, m] : pairs) {
     ReferenceResidual rr;
     rr.id = r->id;

@@ -57,6 +57,20 @@ TEST_F(MapCommand, TwoReferenceCentresPlaceAMapWithinAMillimetreOfTheTruth) {
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("24 markers from 40 of 40 frames"), std::string::npos) << r.out;
   const auto truth = ips::CeilingMap::load(dir_ / "drive/map.json");
+  // Every marker's uncertainty relative to the held one (marker 0, sigma 0): positive, at most
+  // 1.3 mm here (measured; mostly how well the held marker's own heading is known, times the
+  // distance), and larger far from it (marker 23, 7.2 m away) than beside it (marker 1, 1.2 m).
+  const auto built = ips::CeilingMap::load(out);
+  for (const auto& m : built.markers) {
+    ASSERT_TRUE(m.sigma.has_value()) << m.id;
+    const double s2 = std::hypot((*m.sigma)[0], (*m.sigma)[1]);
+    if (m.id == 0)
+      EXPECT_EQ(s2, 0.0);
+    else
+      EXPECT_TRUE(s2 > 0 && s2 < 0.003) << "marker " << m.id << ": " << s2;
+  }
+  EXPECT_GT((*built.find(23)->sigma).head<2>().norm(), (*built.find(1)->sigma).head<2>().norm());
+  EXPECT_NE(r.out.find("uncertainty relative to marker 0 (held)"), std::string::npos) << r.out;
   // Measured on 300 frames: mean 0.04 mm, max 0.10 mm, yaw 0.02 deg.
   expect_close_to_truth(ips::CeilingMap::load(out), truth, 0.001, 0.2 * M_PI / 180);
   // The robot localised against the map it built: as against the exact one.

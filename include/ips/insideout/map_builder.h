@@ -10,7 +10,8 @@
 // times the focal length, about pixels), a Huber loss, the first marker held (the 4 degrees
 // of freedom a face-down ceiling leaves: x, y, z and a turn about the vertical); (3) the map
 // turned and shifted onto the references (>= 2 centres, or one with its yaw), their residuals
-// reported.
+// reported. Each marker's sigma (x, y, z, yaw) is the adjustment's covariance relative to the
+// held marker, scaled by the corner noise the residuals show.
 #pragma once
 
 #include <cstdint>
@@ -62,6 +63,10 @@ struct MapBuildResult {
   int corners = 0;               ///< corner observations in the adjustment
   double rms_px = 0.0;           ///< their RMS error after it
   std::vector<int> unconnected;  ///< ids seen only in frames that share no marker with the map
+  /// The marker held in the adjustment (the smallest id): every marker's `sigma` in the map is
+  /// its uncertainty relative to this one (whose own is 0); the references' residuals say how
+  /// well the whole map sits in the lab.
+  int anchor = -1;
   struct Pose {
     std::int64_t t_ns;
     Eigen::Vector3d position;  ///< lens centre
