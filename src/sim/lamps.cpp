@@ -79,6 +79,10 @@ cv::Rect pixel_box(const SceneLamp& lamp, const SceneCamera& cam, const cv::Size
     return c.z() > 0 ? whole : cv::Rect();
   }
   if (behind > 0) return whole;
+  // A wide pinhole lens can put a point near its field's edge millions of pixels out: clamp
+  // before the conversion to int (out of int's range it would be undefined).
+  const auto clamp = [](double v) { return std::clamp(v, -1e6, 1e6); };
+  x0 = clamp(x0), y0 = clamp(y0), x1 = clamp(x1), y1 = clamp(y1);
   const cv::Rect box(cv::Point(static_cast<int>(std::floor(x0)) - 2, static_cast<int>(std::floor(y0)) - 2),
                      cv::Point(static_cast<int>(std::ceil(x1)) + 3, static_cast<int>(std::ceil(y1)) + 3));
   return box & whole;

@@ -164,8 +164,9 @@ TEST(IpsdInsideOut, ARobotLeavingTheOverheadCameraIsCarriedByItsOwnCameraAndHand
   if (!in_time)
     std::printf("[ inside-out ] the robot camera rendered %.1f fps (a busy machine): fusion not asserted here\n",
                 up_fps);
-  if (in_time)
+  if (in_time) {
     EXPECT_GT(both, overhead.size() / 4) << "where both see the robot, its records are of one track with both sources";
+  }
   EXPECT_LT(p95(overhead), 0.02);
   EXPECT_LT(p95(own), 0.03) << "the inside-out goal at speed (the paper: 20 cm)";
   EXPECT_LT(p95(yaw_error), 1.0 * M_PI / 180);
@@ -173,9 +174,10 @@ TEST(IpsdInsideOut, ARobotLeavingTheOverheadCameraIsCarriedByItsOwnCameraAndHand
   for (double step : handover) EXPECT_LT(step, 0.03) << "a hand-over jumped";
   EXPECT_GT(up["robot_poses"].get<int>(), 20) << up.dump();
   EXPECT_EQ(up["ceiling_outliers"].get<int>(), 0) << up.dump();
-  if (in_time)
+  if (in_time) {
     EXPECT_GT(status["fusion_held_for_cameras"].get<int>(), 10)
         << "the robot camera's poses under the overhead camera were merged into its records";
+  }
   fs::remove_all(dir);
 }
 
